@@ -1,0 +1,54 @@
+"""The ``massprops`` command line: one click group, one module per subcommand.
+
+Subcommand modules are imported only when their command runs (or help lists
+them), so ``massprops props`` on a small mesh pays for nothing else.  Only this
+package imports click, prints, or exits.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+
+import click
+
+# name -> (module, function); each module is massprops/cli/<module>.py
+COMMANDS = {
+    "props": ("props", "props"),
+    "scene": ("scene", "scene"),
+    "batch": ("batch", "batch"),
+    "solids": ("solids", "solids"),
+    "regress": ("regress", "regress"),
+    "check": ("check", "check"),
+    "accuracy": ("accuracy", "accuracy"),
+    "spin": ("spin", "spin"),
+}
+
+
+class LazyGroup(click.Group):
+    """A click group that imports a subcommand's module on first use."""
+
+    def list_commands(self, ctx):
+        return [name for name, (module, _) in COMMANDS.items() if importlib.util.find_spec(
+            f"{__name__}.{module}") is not None]
+
+    def get_command(self, ctx, name):
+        if name not in COMMANDS:
+            return None
+        module, attribute = COMMANDS[name]
+        try:
+            return getattr(importlib.import_module(f"{__name__}.{module}"), attribute)
+        except ModuleNotFoundError as exc:
+            if exc.name == f"{__name__}.{module}":
+                return None
+            raise
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="massprops")
+def main():
+    """Exact mass properties of solids from meshes.
+
+    Inertia tensors are J = ∫ (sᵀs I − s sᵀ) dm (off-diagonals are the tensor's
+    own, J_xy = −∫ x y dm); a pose maps local x' to global x = A x' + t.
+    """

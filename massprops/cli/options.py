@@ -1,0 +1,90 @@
+"""Options shared by several subcommands, as named decorators, and the error edge.
+
+Library code raises :class:`massprops.errors.MassPropsError`; here, at the
+edge, it becomes one line on stderr (``error: FILE: what — fix``) and an exit
+code.  Set ``MASSPROPS_DEBUG=1`` to see tracebacks of unexpected errors.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+from ..errors import MassPropsError
+
+UNIT_CHOICES = ["m", "cm", "mm", "um", "in", "ft"]
+
+
+def _pose_from(rotate, translate):
+    from ..frames import Pose
+    translation = translate or (0.0, 0.0, 0.0)
+    if rotate:
+        return Pose.parse(rotate, translation=translation)
+    return Pose(translation=__import__("numpy").asarray(translation, dtype=float))
+
+
+def material_options(f):
+    """--density / --mass / --unit."""
+    f = click.option("--unit", type=click.Choice(UNIT_CHOICES),
+                     help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.")(f)
+    f = click.option("--mass", "total_mass", type=float, help="Total mass (density derived).")(f)
+    f = click.option("--density", type=float, help="Density [mass/length³]; default 1, so mass = volume.")(f)
+    return f
+
+
+def pose_options(f):
+    """--rotate / --translate, giving the part's pose (x = A x' + t)."""
+    f = click.option("--translate", type=float, nargs=3, default=None, metavar="X Y Z",
+                     help="Translation t of the pose.")(f)
+    f = click.option("--rotate", metavar="ROTATION",
+                     help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
+                          "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
+    return f
+
+
+def repair_option(f):
+    return click.option("--repair", is_flag=True,
+                        help="Fix winding, remove duplicate faces, close small holes, and say what changed.")(f)
+
+
+def format_option(*choices):
+    def decorate(f):
+        return click.option("--format", "output_format", type=click.Choice(list(choices)), default=choices[0],
+                            show_default=True, help="Output format.")(f)
+    return decorate
+
+
+def pose_from_options(rotate, translate):
+    """Build the Pose the options describe (raises OptionError)."""
+    return _pose_from(rotate, translate)
+
+
+def echo_error(message):
+    click.echo(f"error: {message}", err=True)
+
+
+def guarded(fn, *args, path=None, **kwargs):
+    """Run ``fn``; on failure print the one-line error and return None.
+
+    A :class:`MassPropsError` prints its own line; anything else is a bug in
+    massprops and says so (with a traceback only under ``MASSPROPS_DEBUG``).
+    """
+    try:
+        return fn(*args, **kwargs)
+    except MassPropsError as exc:
+        echo_error(str(exc) if exc.path or path is None else str(exc.with_path(path)))
+    except MemoryError:
+        echo_error(f"{path}: not enough memory to process this mesh — free memory or split the file")
+    except Exception as exc:  # noqa: BLE001 - the edge: never a traceback
+        if os.environ.get("MASSPROPS_DEBUG"):
+            raise
+        where = f"{path}: " if path else ""
+        echo_error(f"{where}internal error ({type(exc).__name__}: {exc}) — "
+                   "please report it; rerun with MASSPROPS_DEBUG=1 for details")
+    return None
+
+
+def exit_with(failed):
+    sys.exit(1 if failed else 0)

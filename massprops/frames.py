@@ -1,0 +1,191 @@
+"""Poses, rotation parsing, and moving inertia tensors between frames.
+
+Convention (used everywhere in massprops): a pose is a proper rotation ``A``
+(3×3, det +1) and a translation ``t``; a local point ``x'`` of the part sits at
+``x = A x' + t`` in the global frame.  Quaternions are ``(w, x, y, z)``, scalar
+first, unless ``scalar_first=False``.  Euler sequences follow scipy: lower-case
+letters are extrinsic rotations (about the fixed axes), upper-case intrinsic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import OptionError
+
+__all__ = ["Pose", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
+
+_ORTHONORMAL_TOL = 1e-9
+
+
+def skew(v):
+    """The cross-product matrix ``ṽ`` with ``ṽ w = v × w``."""
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _axis_rotation(axis, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    m = np.eye(3)
+    m[i, i] = m[j, j] = c
+    m[j, i], m[i, j] = s, -s
+    return m
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """Where a part sits: ``x = rotation @ x' + translation``.
+
+    Build one with :meth:`from_quat`, :meth:`from_euler`, :meth:`from_matrix`
+    or :meth:`parse`; the identity is ``Pose()``.
+    """
+
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    translation: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @classmethod
+    def from_quat(cls, quat, *, scalar_first=True, translation=(0.0, 0.0, 0.0)):
+        """Pose from a quaternion (normalised here; zero length is refused)."""
+        q = np.asarray(quat, dtype=float)
+        if q.shape != (4,) or not np.all(np.isfinite(q)):
+            raise OptionError(f"a quaternion needs 4 finite numbers, got {quat!r}")
+        w, x, y, z = q if scalar_first else np.roll(q, 1)
+        n = math.sqrt(w * w + x * x + y * y + z * z)
+        if n == 0:
+            raise OptionError("a quaternion of zero length is no rotation", fix="give w,x,y,z with w=1 for none")
+        w, x, y, z = w / n, x / n, y / n, z / n
+        rotation = np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ])
+        return cls(rotation, np.asarray(translation, dtype=float))
+
+    @classmethod
+    def from_euler(cls, seq, angles, *, degrees=True, translation=(0.0, 0.0, 0.0)):
+        """Pose from Euler angles, scipy's convention (``"xyz"`` extrinsic, ``"XYZ"`` intrinsic)."""
+        if not (1 <= len(seq) <= 3) or not (seq.islower() or seq.isupper()) \
+                or any(ch not in "xyzXYZ" for ch in seq):
+            raise OptionError(f"Euler sequence {seq!r} is not valid",
+                              fix="use 1 to 3 letters of xyz (extrinsic) or XYZ (intrinsic), e.g. zyx or ZYX")
+        angles = np.atleast_1d(np.asarray(angles, dtype=float))
+        if angles.shape != (len(seq),):
+            raise OptionError(f"Euler sequence {seq!r} needs {len(seq)} angles, got {angles.size}")
+        if degrees:
+            angles = np.radians(angles)
+        rotation = np.eye(3)
+        for letter, angle in zip(seq, angles):
+            step = _axis_rotation("xyz".index(letter.lower()), angle)
+            # Extrinsic: each new rotation applies after (left of) the previous ones.
+            rotation = step @ rotation if seq.islower() else rotation @ step
+        return cls(rotation, np.asarray(translation, dtype=float))
+
+    @classmethod
+    def from_matrix(cls, matrix, *, translation=(0.0, 0.0, 0.0)):
+        """Pose from a 3×3 rotation matrix; refused unless orthonormal with det +1."""
+        m = np.asarray(matrix, dtype=float)
+        if m.shape != (3, 3) or not np.all(np.isfinite(m)):
+            raise OptionError(f"a rotation matrix needs 9 finite numbers, got {np.size(m)}")
+        off = float(np.abs(m @ m.T - np.eye(3)).max())
+        if off > _ORTHONORMAL_TOL:
+            raise OptionError(f"the rotation matrix is not orthonormal (|A Aᵀ − I| = {off:.3g})",
+                              fix="give a proper rotation, or use a quaternion")
+        if np.linalg.det(m) < 0:
+            raise OptionError("the rotation matrix has det −1 (a reflection)",
+                              fix="give a proper rotation (det +1)")
+        return cls(m, np.asarray(translation, dtype=float))
+
+    @classmethod
+    def parse(cls, text, *, translation=(0.0, 0.0, 0.0)):
+        """Parse a rotation given on the command line.
+
+        Accepted forms: ``quat:w,x,y,z``; ``euler:SEQ:a,b,c`` (degrees);
+        ``matrix:m11,m12,...,m33`` (row-major); or bare numbers — 4 of them a
+        quaternion, 9 a matrix.
+        """
+        text = text.strip()
+        kind, _, rest = text.partition(":")
+        try:
+            if kind == "euler":
+                seq, _, numbers = rest.partition(":")
+                return cls.from_euler(seq, _numbers(numbers), translation=translation)
+            if kind in ("quat", "matrix"):
+                values = _numbers(rest)
+            else:
+                kind, values = None, _numbers(text)
+        except ValueError:
+            raise OptionError(f"cannot read rotation {text!r}",
+                              fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers") from None
+        if kind == "quat" or (kind is None and len(values) == 4):
+            return cls.from_quat(values, translation=translation)
+        if kind == "matrix" or (kind is None and len(values) == 9):
+            return cls.from_matrix(np.reshape(values, (3, 3)) if len(values) == 9 else values,
+                                   translation=translation)
+        raise OptionError(f"cannot read rotation {text!r}",
+                          fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers")
+
+    def apply(self, points):
+        """Map local points (…, 3) to the global frame."""
+        return np.asarray(points) @ self.rotation.T + self.translation
+
+    def as_quat(self, *, scalar_first=True):
+        """The rotation as a unit quaternion with w ≥ 0."""
+        m = self.rotation
+        w = math.sqrt(max(0.0, 1 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
+        x = math.copysign(math.sqrt(max(0.0, 1 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
+        y = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
+        z = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
+        q = np.array([w, x, y, z])
+        return q if scalar_first else np.roll(q, -1)
+
+    def compose(self, inner):
+        """The pose of ``inner`` placed inside this pose: ``self ∘ inner``."""
+        return Pose(self.rotation @ inner.rotation, self.rotation @ inner.translation + self.translation)
+
+    def inverse(self):
+        return Pose(self.rotation.T, -self.rotation.T @ self.translation)
+
+
+def _numbers(text):
+    values = [float(v) for v in text.replace(" ", ",").split(",") if v]
+    if not values:
+        raise ValueError("no numbers")
+    return values
+
+
+def rotate_inertia(inertia, rotation):
+    """``A J Aᵀ``: an inertia tensor expressed in axes rotated by ``A``."""
+    a = np.asarray(rotation, dtype=float)
+    return a @ np.asarray(inertia, dtype=float) @ a.T
+
+
+def parallel_axis(mass, offset):
+    """``m (rᵀr I₃ − r rᵀ)``: what the parallel-axis theorem adds at offset ``r``."""
+    r = np.asarray(offset, dtype=float)
+    return mass * (float(r @ r) * np.eye(3) - np.outer(r, r))
+
+
+def inertia_about_frame(inertia_com_global, mass, center_of_mass, frame):
+    """``J_o' = A_jᵀ (J_G + m (ρᵀρ I − ρ ρᵀ)) A_j`` with ``ρ = r_j − r_G``.
+
+    Parameters
+    ----------
+    inertia_com_global : ndarray, shape (3, 3)
+        Inertia about the center of mass, global axes.
+    mass : float
+    center_of_mass : ndarray, shape (3,)
+        Global position of the center of mass.
+    frame : Pose
+        The frame j (origin ``r_j``, rotation ``A_j``).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Inertia about frame j's origin, in frame j's axes.
+    """
+    rho = frame.translation - np.asarray(center_of_mass, dtype=float)
+    return rotate_inertia(np.asarray(inertia_com_global) + parallel_axis(mass, rho), frame.rotation.T)

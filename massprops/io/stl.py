@@ -1,0 +1,81 @@
+"""STL, binary and ASCII, read with numpy alone (no trimesh import).
+
+Binary STL coordinates are float32: they are widened to float64 exactly, so
+every later computation sees the values the file holds.  ASCII coordinates are
+parsed with Python's correctly rounded ``float``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+
+from ..errors import MeshFormatError
+from ..mesh import TriangleMesh
+from . import register_format
+
+_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+_HEADER = 84
+_VERTEX = re.compile(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)")
+
+
+def read(path):
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        head = f.read(_HEADER)
+    if size == 0:
+        raise MeshFormatError("the file is empty", path=path, fix="re-export the mesh")
+    if len(head) >= _HEADER:
+        count = int.from_bytes(head[80:84], "little")
+        if size == _HEADER + count * _RECORD.itemsize:
+            return _read_binary(path, count)
+    if head.lstrip()[:5].lower() == b"solid":
+        return _read_ascii(path)
+    if len(head) < _HEADER:
+        raise MeshFormatError(f"too short for binary STL ({size} bytes, a header needs 84)", path=path,
+                              fix="re-export the mesh")
+    expected = _HEADER + count * _RECORD.itemsize
+    raise MeshFormatError(
+        f"binary STL header says {count} triangles ({expected} bytes) but the file has {size} bytes",
+        path=path, fix="the file is truncated or not an STL; re-export it")
+
+
+def _read_binary(path, count):
+    if count == 0:
+        raise MeshFormatError("the STL holds no triangles", path=path, fix="export the part as a closed surface")
+    records = np.fromfile(path, dtype=_RECORD, count=count, offset=_HEADER)
+    return TriangleMesh.from_triangles(records["corners"], source_dtype=np.float32)
+
+
+def _read_ascii(path):
+    with open(path, "rb") as f:
+        text = f.read()
+    found = _VERTEX.findall(text)
+    if not found or len(found) % 3:
+        what = "no 'vertex' lines" if not found else f"{len(found)} vertices, not a multiple of 3"
+        raise MeshFormatError(f"not a valid ASCII STL ({what})", path=path, fix="re-export the mesh")
+    try:
+        corners = np.array(found, dtype=np.float64)
+    except ValueError:
+        raise MeshFormatError("ASCII STL has a vertex coordinate that is not a number", path=path,
+                              fix="re-export the mesh") from None
+    return TriangleMesh.from_triangles(corners.reshape(-1, 3, 3))
+
+
+def write_binary(path, triangles, header=b"massprops"):
+    """Write triangles (m, 3, 3) as binary STL (float32, as the format holds)."""
+    triangles = np.asarray(triangles, dtype=np.float64)
+    records = np.zeros(triangles.shape[0], dtype=_RECORD)
+    records["corners"] = triangles
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    records["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    with open(path, "wb") as f:
+        f.write(header[:80].ljust(80, b" "))
+        f.write(np.uint32(triangles.shape[0]).tobytes())
+        records.tofile(f)
+
+
+register_format("stl", [".stl"], read)
