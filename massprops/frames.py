@@ -109,23 +109,23 @@ class Pose:
         """
         text = text.strip()
         kind, _, rest = text.partition(":")
-        try:
-            if kind == "euler":
-                seq, _, numbers = rest.partition(":")
-                return cls.from_euler(seq, _numbers(numbers), translation=translation)
-            if kind in ("quat", "matrix"):
-                values = _numbers(rest)
-            else:
-                kind, values = None, _numbers(text)
-        except ValueError:
+        seq = None
+        if kind == "euler":
+            seq, _, rest = rest.partition(":")
+        elif kind not in ("quat", "matrix"):
+            kind, rest = None, text
+        values = _numbers(rest)
+        if values is None:
             raise OptionError(f"cannot read rotation {text!r}",
-                              fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers") from None
+                              fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers")
+        if kind == "euler":
+            return cls.from_euler(seq, values, translation=translation)
         if kind == "quat" or (kind is None and len(values) == 4):
             return cls.from_quat(values, translation=translation)
         if kind == "matrix" or (kind is None and len(values) == 9):
             return cls.from_matrix(np.reshape(values, (3, 3)) if len(values) == 9 else values,
                                    translation=translation)
-        raise OptionError(f"cannot read rotation {text!r}",
+        raise OptionError(f"cannot read rotation {text!r}: {len(values)} numbers",
                           fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers")
 
     def apply(self, points):
@@ -151,10 +151,12 @@ class Pose:
 
 
 def _numbers(text):
-    values = [float(v) for v in text.replace(" ", ",").split(",") if v]
-    if not values:
-        raise ValueError("no numbers")
-    return values
+    """Comma- or space-separated floats, or None if any is not a number."""
+    try:
+        values = [float(v) for v in text.replace(" ", ",").split(",") if v]
+    except ValueError:
+        return None
+    return values or None
 
 
 def rotate_inertia(inertia, rotation):

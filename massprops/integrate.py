@@ -257,8 +257,20 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK):
         second = np.array([[flat[0], flat[3], flat[4]], [flat[3], flat[1], flat[5]], [flat[4], flat[5], flat[2]]])
         batch_gamma = _gamma(4 * _BATCH) + _pairwise_gamma(largest_chunk // _BATCH + 1)
         second_error = 12 * radius ** 2 * ((_gamma(9) + batch_gamma) * abs_sum + (1 + _gamma(9)) * bound_sum)
+    if abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
+        # The tetrahedra cancel heavily: redo the sums in double-double.
+        from .integrate_dd import integrate_double_double
+        dd = integrate_double_double(scaled, faces, order)
+        det_sum, det_error = dd["det_sum"], dd["det_error"]
+        first, first_error = dd.get("first", first), dd.get("first_error", first_error)
+        second, second_error = dd.get("second", second), dd.get("second_error", second_error)
+        refined = faces.shape[0]
     return Moments(reference, scale_exp, order, det_sum, det_error, first, first_error, second, second_error,
                    math.fsum(sums["area"]), faces.shape[0], refined, exact)
+
+
+# Above this ratio Σ|det| / |Σ det| the fast pass loses more than ~4 bits to cancellation.
+_CANCELLATION_LIMIT = 16.0
 
 
 _BATCH = 32

@@ -1,0 +1,76 @@
+"""Principal moments and axes: order, signs, handedness, and the degenerate-axis rule."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from conftest import random_rotation
+from massprops import solids
+from massprops.compute import mass_properties
+from massprops.mesh import TriangleMesh
+from massprops.principal import principal
+
+
+def check_conventions(result, tensor):
+    axes = result.axes
+    assert np.all(np.diff(result.moments) >= 0)
+    np.testing.assert_allclose(axes @ axes.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(np.cross(axes[0], axes[1]), axes[2], atol=1e-12)
+    for axis in axes[:2]:
+        k = int(np.argmax(np.abs(axis)))
+        assert axis[k] > 0
+    np.testing.assert_allclose(axes.T @ np.diag(result.moments) @ axes, tensor, atol=1e-12 * np.abs(tensor).max())
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.1, 10.0), min_size=3, max_size=3), st.integers(0, 10 ** 6))
+def test_random_tensors_follow_conventions(moments, seed):
+    rotation = random_rotation(seed)
+    tensor = rotation @ np.diag(moments) @ rotation.T
+    check_conventions(principal(tensor), tensor)
+
+
+def shuffled(mesh, seed, noise=0.0):
+    rng = np.random.default_rng(seed)
+    faces = np.roll(mesh.faces[rng.permutation(len(mesh.faces))], rng.integers(3), axis=1)
+    vertices = mesh.vertices * (1 + noise * rng.uniform(-1, 1, mesh.vertices.shape))
+    return TriangleMesh(vertices, faces)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cube_gives_identity(seed):
+    result = mass_properties(shuffled(solids.box((2.0, 2.0, 2.0), (1.0, 2.0, 3.0)), seed)).properties.principal
+    assert result.degenerate == ((0, 1, 2),)
+    np.testing.assert_array_equal(result.axes, np.eye(3))
+
+
+@pytest.mark.parametrize("seed,noise", [(0, 0.0), (1, 1e-13), (2, 1e-13)])
+def test_tall_z_cylinder_has_z_as_odd_axis(seed, noise):
+    result = mass_properties(shuffled(solids.regular_prism(64, 1.0, 5.0), seed, noise)).properties.principal
+    assert result.degenerate == ((1, 2),)
+    np.testing.assert_allclose(result.axes, [[0, 0, 1], [1, 0, 0], [0, 1, 0]], atol=1e-12)
+
+
+def test_flat_z_cylinder_axial_moment_largest():
+    result = mass_properties(solids.regular_prism(64, 3.0, 0.5)).properties.principal
+    assert result.degenerate == ((0, 1),)
+    np.testing.assert_allclose(result.axes, np.eye(3), atol=1e-12)
+
+
+def test_x_cylinder_projects_local_axes_in_order():
+    x_axis = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])   # maps z to x
+    mesh = solids.regular_prism(64, 1.0, 5.0)
+    result = mass_properties(TriangleMesh(mesh.vertices @ x_axis.T, mesh.faces)).properties.principal
+    assert result.degenerate == ((1, 2),)
+    np.testing.assert_allclose(result.axes, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], atol=1e-12)
+
+
+def test_distinct_moments_are_not_grouped():
+    result = principal(np.diag([1.0, 1.0 + 1e-6, 2.0]))
+    assert result.degenerate == ()
+    result = principal(np.diag([1.0, 1.0 + 1e-12, 2.0]))
+    assert result.degenerate == ((0, 1),)
+
+
+def test_error_bound_widens_degeneracy():
+    assert principal(np.diag([1.0, 1.0 + 1e-7, 2.0]), error=1e-6).degenerate == ((0, 1),)
