@@ -115,6 +115,8 @@ class MassProperties:
             Total mass instead of density.
         unit : {"m", "cm", "mm", "um", "in", "ft"}, optional
             The mesh's length unit; outputs are then SI.
+        pose : Pose, optional
+            Rotation and translation of the part; the translation is in mesh units.
         """
         if density is not None and mass is not None:
             raise OptionError("give --density or --mass, not both")
@@ -165,6 +167,9 @@ class MassProperties:
                                     fix="give the mesh in a larger length unit")
         bounds = ErrorBounds(volume=error_volume, mass=error_mass, center_of_mass=error_com,
                              inertia_com=error_inertia)
+        if pose is not None and unit is not None:
+            # A pose's translation is given in mesh units, like the mesh; outputs are SI.
+            pose = Pose(pose.rotation, pose.translation * float(unit_factor(unit)))
         return cls(*values, com, inertia, bounds, pose or Pose(), unit)
 
     # -- derived quantities -------------------------------------------------
@@ -173,9 +178,10 @@ class MassProperties:
     def principal(self):
         """:class:`massprops.principal.Principal` of ``inertia_com`` (local axes)."""
         self._need_inertia()
-        resolution = self.error.input_resolution.get("inertia_com", 0.0)
+        # input_resolution["principal_moments"] already bounds the spectral norm (Weyl), no factor 3.
+        resolution = self.error.input_resolution.get("principal_moments", 0.0)
         return principal(self.inertia_com, error=self.error.inertia_com, rtol=self.degenerate_rtol,
-                         extra_tolerance=3.0 * resolution)
+                         extra_tolerance=resolution)
 
     @property
     def center_of_mass_global(self):

@@ -10,6 +10,7 @@ import csv
 import io
 import json
 import math
+import re
 
 import numpy as np
 
@@ -77,9 +78,10 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
         out["angular_momentum"] = {"local": local, "global": world}
         out["kinetic_energy"] = p.kinetic_energy(omega)
     error = p.error
-    if p.inertia_com is not None and (want("principal") or want("inertia")):
+    if p.inertia_com is not None and want("principal"):  # no eigen-decomposition unless asked
         from dataclasses import replace
-        error = replace(error, principal_moments=p.principal.moments_error)
+        error = replace(error, principal_moments=p.principal.moments_error,
+                        principal_axes_rad=p.principal.axes_error)
     out["error"] = error.as_dict()
     out["pose"] = {"rotation": p.pose.rotation, "translation": p.pose.translation}
     out["checks"] = result.checks
@@ -90,9 +92,13 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
     return _plain(out)
 
 
+_NUMBER_LIST = re.compile(r"\[\s*([-+0-9.eE,\s]+?)\s*\]")
+
+
 def to_json(objects):
-    """A JSON array of result objects, pretty-printed, floats at full precision."""
-    return json.dumps(_plain(list(objects)), indent=2, allow_nan=False)
+    """A JSON array of result objects, indented, numeric arrays on one line, floats at full precision."""
+    text = json.dumps(_plain(list(objects)), indent=2, allow_nan=False)
+    return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 
 def _num(x):
@@ -113,16 +119,18 @@ def to_text(obj):
             _num(value) if isinstance(value, (int, float)) else str(value))
         lines.append(f"  {label:<22} {text}" + (f"   ± {bound:.2g}" if bound is not None else ""))
 
+    posed = obj["pose"]["rotation"] != np.eye(3).tolist() or any(obj["pose"]["translation"])
+    skip = set() if posed else {"center_of_mass_global", "inertia_com_global"}
     for key, label, bound in (("volume", "volume", "volume"), ("mass", "mass", "mass"),
                               ("density", "density", None), ("surface_area", "surface area", None),
                               ("center_of_mass", "center of mass", "center_of_mass"),
                               ("center_of_mass_global", "center of mass global", None)):
-        if key in obj:
+        if key in obj and key not in skip:
             row(label, obj[key], err.get(bound) if bound else None)
     for key, label, bound in (("inertia_com", "inertia about COM", "inertia_com"),
                               ("inertia_com_global", "  global axes", None),
                               ("inertia_origin", "about global origin", None)):
-        if key in obj:
+        if key in obj and key not in skip:
             rows = obj[key]
             for i, r in enumerate(rows):
                 lines.append(f"  {label if i == 0 else '':<22} {_vec(r)}"
