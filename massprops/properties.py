@@ -118,6 +118,15 @@ class MassProperties:
         pose : Pose, optional
             Rotation and translation of the part; the translation is in mesh units.
         """
+        try:
+            return cls._from_moments(moments, density=density, mass=mass, unit=unit, pose=pose, path=path)
+        except OverflowError:
+            raise MeshGeometryError("the results overflow double precision", path=path,
+                                    fix="give the mesh in a larger length unit") from None
+
+    @classmethod
+    def _from_moments(cls, moments, *, density, mass, unit, pose, path):
+        """The exact post-processing behind :meth:`from_moments`."""
         if density is not None and mass is not None:
             raise OptionError("give --density or --mass, not both")
         for name, value in (("density", density), ("mass", mass)):
@@ -160,6 +169,9 @@ class MassProperties:
                 error_inertia = (2 * ec * float(scale) + rho_rel_error * float(np.abs(inertia).max()) * 1.01
                                  + _round_error(inertia))
         values = (float(volume), float(total), float(rho), surface_area)
+        if values[0] == 0.0:
+            raise MeshGeometryError("the results underflow double precision", path=path,
+                                    fix="give the mesh in a smaller length unit (e.g. --unit) or rescale it")
         if not all(math.isfinite(v) for v in values) or (
                 inertia is not None and not np.all(np.isfinite(inertia))) or (
                 com is not None and not np.all(np.isfinite(com))):
@@ -171,6 +183,30 @@ class MassProperties:
             # A pose's translation is given in mesh units, like the mesh; outputs are SI.
             pose = Pose(pose.rotation, pose.translation * float(unit_factor(unit)))
         return cls(*values, com, inertia, bounds, pose or Pose(), unit)
+
+    @classmethod
+    def from_cell_moments(cls, volume_moments, mass_moments, *, mass=None, unit=None, pose=None, path=None):
+        """Mass properties of a body whose density varies from cell to cell.
+
+        ``mass_moments`` are the integrals with every term weighted by its
+        cell's density (:func:`massprops.integrate.integrate` ``weights=``):
+        :meth:`from_moments` with density 1 turns them into mass, center of
+        mass and inertia by the same exact post-processing.  Volume, surface
+        area and their bounds come from the unweighted ``volume_moments`` (of
+        the same vertices); ``density`` is then the mean density.
+
+        Parameters
+        ----------
+        mass : float, optional
+            Total mass: the cell densities are scaled to it (they give the
+            proportions only).
+        """
+        weighted = cls.from_moments(mass_moments, density=None if mass is not None else 1.0, mass=mass,
+                                    unit=unit, pose=pose, path=path)
+        geometry = cls.from_moments(volume_moments, unit=unit, path=path)
+        error = replace(weighted.error, volume=geometry.error.volume)
+        return replace(weighted, volume=geometry.volume, density=weighted.mass / geometry.volume,
+                       surface_area=geometry.surface_area, error=error)
 
     # -- derived quantities -------------------------------------------------
 
