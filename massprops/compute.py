@@ -13,6 +13,7 @@ from . import integrate as _integrate
 from .errors import MassPropsError, OptionError
 from .mesh import TriangleMesh, check_mesh
 from .properties import MassProperties
+from .resolution import annotate
 
 __all__ = ["mass_properties", "Result", "QUANTITIES", "order_for"]
 
@@ -44,12 +45,13 @@ class Result:
     extra: dict = field(default_factory=dict)
 
 
-def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None):
-    """Mass properties of a closed mesh.
+def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
+                    density_field=None, density_map=None, shell=None):
+    """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
     Parameters
     ----------
-    source : str, os.PathLike or TriangleMesh
+    source : str, os.PathLike, TriangleMesh or VolumeMesh
         A mesh file (any registered format) or a mesh in its local frame.
     density, mass, unit
         See :meth:`MassProperties.from_moments`.
@@ -61,6 +63,12 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     only : iterable of str, optional
         Quantities wanted (keys of ``QUANTITIES``); volume alone forms no
         first or second moments.
+    density_field, density_map : optional
+        Per-cell density of a volume mesh: a cell-data array's name, or
+        ``{group: density}`` (see :func:`massprops.volume.cell_densities`).
+    shell : float, optional
+        Treat the surface as a sheet of this thickness (mesh units), see
+        :mod:`massprops.shell`.
 
     Returns
     -------
@@ -69,20 +77,52 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     start = time.perf_counter()
     order = order_for(only)
     path = None
-    if isinstance(source, TriangleMesh):
-        mesh = source
-    else:
+    if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         from .io import read
         mesh = read(path)
+    else:
+        mesh = source
     try:
+        if shell is not None or density_field is not None or density_map is not None \
+                or not isinstance(mesh, TriangleMesh):
+            return _other_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
+                                 repair=repair, density_field=density_field, density_map=density_map,
+                                 shell=shell)
         return _mesh_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
                             repair=repair)
     except MassPropsError as exc:
         raise exc if exc.path or path is None else exc.with_path(path)
 
 
-def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair):
+def _other_result(mesh, path, start, order, *, shell, density_field, density_map, **material):
+    """A surface as a sheet (``shell``), or a volume mesh's cells."""
+    if shell is not None:
+        if density_field is not None or density_map is not None:
+            raise OptionError("--density-field and --density-map need a volume mesh, not --shell")
+        from .shell import shell_mass_properties
+        props, checks, warnings = shell_mass_properties(mesh, shell, order=order, path=path, **material)
+        triangles = int(mesh.faces.shape[0])
+    else:
+        from .volume import VolumeMesh, volume_mass_properties
+        if not isinstance(mesh, VolumeMesh):
+            raise OptionError("--density-field and --density-map need a volume mesh (cells with cell data or "
+                              "groups)", path=path, fix="give a .vtu, .msh, .inp, ... file with volume cells")
+        props, triangles, checks, warnings = volume_mass_properties(
+            mesh, order=order, density_field=density_field, density_map=density_map, path=path, **material)
+    return Result(file=path or "<mesh>", properties=props, triangles=triangles, checks=checks,
+                  warnings=tuple(warnings), elapsed_s=time.perf_counter() - start,
+                  source_dtype=str(getattr(mesh, "source_dtype", "float64")))
+
+
+def checked_moments(mesh, *, path=None, order=2, repair=False):
+    """Repair (on request), check and integrate a mesh; an inward surface is flipped.
+
+    Returns
+    -------
+    (Moments, TriangleMesh, dict, list of str)
+        Outward moments, the mesh integrated, the checks, and the warnings.
+    """
     warnings = []
     if repair:
         from .repair import repair_mesh
@@ -95,10 +135,18 @@ def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair)
         moments = moments.negated()
         orientation = "inward, flipped"
         warnings.append("faces are wound inward (normals point into the solid); flipped them")
-    props = MassProperties.from_moments(moments, density=density, mass=mass, unit=unit, pose=pose, path=path)
     check_dict = checks.as_dict()
     check_dict["orientation"] = orientation
     check_dict["refined_faces"] = moments.refined_faces
+    return moments, mesh, check_dict, warnings
+
+
+def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair):
+    moments, mesh, check_dict, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
+    props = MassProperties.from_moments(moments, density=density, mass=mass, unit=unit, pose=pose, path=path)
+    props, validity, trust_warnings = annotate(props, mesh, mass_given=mass is not None)
+    check_dict.update(validity)
+    warnings += trust_warnings
     return Result(file=path or "<mesh>", properties=props, triangles=int(mesh.faces.shape[0]),
                   checks=check_dict, warnings=tuple(warnings), elapsed_s=time.perf_counter() - start,
                   source_dtype=str(mesh.source_dtype))

@@ -38,7 +38,7 @@ __all__ = ["Moments", "reference_frame", "integrate"]
 U = 2.0 ** -53
 _DET_BOUND = (7.0 + 56.0 * U) * U          # Shewchuk's o3derrboundA
 _REFINE_ABOVE = 64.0 * U                   # relative det bound that sends a face to the slow path
-_CHUNK = 1 << 15
+_CHUNK = 1 << 13                           # faces per chunk: the workspace stays in cache
 _SPLITTER = 134217729.0                    # 2**27 + 1, Dekker's split
 
 
@@ -175,31 +175,139 @@ def _exact_det(a, b, c):
     return float(a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0))
 
 
-def _face_dets(a, b, c):
-    """Determinants of a chunk of faces, with absolute error bounds, and refinement counts."""
-    e1 = b - a
-    e2 = c - a
-    p = e1[:, [1, 2, 0]] * e2[:, [2, 0, 1]]
-    q = e1[:, [2, 0, 1]] * e2[:, [1, 2, 0]]
-    normal = p - q
-    det = np.einsum("ij,ij->i", a, normal)
-    permanent = np.einsum("ij,ij->i", np.abs(a), np.abs(p) + np.abs(q))
-    bound = _DET_BOUND * permanent
-    hard = np.flatnonzero(bound > _REFINE_ABOVE * np.abs(det))
-    n_exact = 0
-    if hard.size:
-        fine, fine_bound = _refined_det(a[hard], b[hard], c[hard])
-        det[hard] = fine
-        bound[hard] = fine_bound
-        still = hard[fine_bound > _REFINE_ABOVE * np.abs(fine)]
-        for face in still:
-            det[face] = _exact_det(a[face], b[face], c[face])
-            bound[face] = U * abs(det[face])
-        n_exact = still.size
-    return det, bound, normal, hard.size, n_exact
+# Rows of the per-chunk workspace (each row holds one value per face).  Edge
+# vectors and points carry two extra rows repeating x and y, so that the
+# cyclic shifts (y, z, x) and (z, x, y) are plain contiguous slices.
+_A, _B, _C, _S = 0, 5, 10, 15             # corners a, b, c and s = a + b + c: 5 rows each
+_E1, _E2 = 20, 25                         # b − a and c − a: 5 rows each
+_P, _Q, _N, _T = 30, 33, 36, 39           # the cross product's two halves, the normal, scratch: 3 rows each
+_DET, _ABS, _BOUND, _AREA = 42, 43, 44, 45
+_FIRST, _SECOND = 46, 49                  # det·s (3 rows) and the six second-moment terms
+_ROWS = 55
+_SUMMED = {0: slice(_DET, _FIRST), 1: slice(_DET, _SECOND), 2: slice(_DET, _ROWS)}
 
 
-def integrate(vertices, faces, *, order=2, chunk=_CHUNK):
+def _chunk_sums(scaled_axes, faces, order, measure, weights, work):
+    """Pairwise sums over one chunk of faces, in a preallocated workspace.
+
+    Parameters
+    ----------
+    scaled_axes : ndarray, shape (3, n), float64
+        Scaled vertex coordinates, one contiguous row per axis.
+    faces : ndarray, shape (m, 3), int
+    work : ndarray, shape (_ROWS, ≥ m), float64
+        Scratch; every operation writes into it (no temporaries).
+
+    Returns
+    -------
+    sums : ndarray
+        Σ det, Σ |det|, Σ bound, Σ area, then Σ det·s (order ≥ 1), then the
+        second-moment terms xx, yy, zz, xy, yz, xz (order 2).
+    refined, exact : int
+        Faces sent to the double-double and to the exact path.
+    """
+    m = faces.shape[0]
+    w = work[:, :m]
+    for k, corner in enumerate((_A, _B, _C)):
+        for axis in range(3):
+            np.take(scaled_axes[axis], faces[:, k], out=w[corner + axis], mode="clip")
+    a, e1, e2 = w[_A:_A + 3], w[_E1:_E1 + 5], w[_E2:_E2 + 5]
+    np.subtract(w[_B:_B + 3], a, out=e1[:3])
+    np.subtract(w[_C:_C + 3], a, out=e2[:3])
+    e1[3:] = e1[:2]
+    e2[3:] = e2[:2]
+    p, q, normal, scratch = w[_P:_P + 3], w[_Q:_Q + 3], w[_N:_N + 3], w[_T:_T + 3]
+    np.multiply(e1[1:4], e2[2:5], out=p)
+    np.multiply(e1[2:5], e2[1:4], out=q)
+    np.subtract(p, q, out=normal)
+    det, bound, area = w[_DET], w[_BOUND], w[_AREA]
+    np.multiply(normal, normal, out=scratch)
+    _row_sum(scratch, area)
+    np.sqrt(area, out=area)
+    np.abs(p, out=p)
+    np.abs(q, out=q)
+    np.add(p, q, out=p)                                   # |p| + |q|, per component
+    refined = exact = 0
+    if measure == "area":
+        _row_sum(p, bound)
+        bound *= _gamma(6)
+        np.multiply(area, _gamma(3), out=det)
+        bound += det
+        det[:] = area
+    else:
+        np.multiply(a, normal, out=scratch)
+        _row_sum(scratch, det)
+        np.abs(a, out=scratch)
+        np.multiply(scratch, p, out=scratch)
+        _row_sum(scratch, bound)
+        bound *= _DET_BOUND
+        refined, exact = _refine_hard_faces(w, m)
+    if weights is not None:
+        det[:], bound[:] = _weighted(det, bound, weights)
+    np.abs(det, out=w[_ABS])
+    if order >= 1:
+        s = w[_S:_S + 5]
+        np.add(a, w[_B:_B + 3], out=s[:3])
+        np.add(s[:3], w[_C:_C + 3], out=s[:3])
+        np.multiply(s[:3], det, out=w[_FIRST:_FIRST + 3])
+    if order >= 2:
+        _second_moment_terms(w, det)
+    return np.sum(w[_SUMMED[order]], axis=1), refined, exact
+
+
+def _row_sum(rows, out):
+    """out = (rows[0] + rows[1]) + rows[2], the order the error bounds assume."""
+    np.add(rows[0], rows[1], out=out)
+    out += rows[2]
+
+
+def _refine_hard_faces(w, m):
+    """Re-evaluate the determinants whose a-priori bound is too large relative to them."""
+    det, bound, scratch = w[_DET], w[_BOUND], w[_T]
+    np.abs(det, out=scratch)
+    scratch *= _REFINE_ABOVE
+    hard = np.flatnonzero(bound > scratch)
+    if not hard.size:
+        return 0, 0
+    a, b, c = (w[corner:corner + 3, hard].T for corner in (_A, _B, _C))
+    fine, fine_bound = _refined_det(a, b, c)
+    still = np.flatnonzero(fine_bound > _REFINE_ABOVE * np.abs(fine))
+    for face in still:
+        fine[face] = _exact_det(a[face], b[face], c[face])
+        fine_bound[face] = U * abs(fine[face])
+    det[hard] = fine
+    bound[hard] = fine_bound
+    return hard.size, still.size
+
+
+def _second_moment_terms(w, det):
+    """det·(s sᵀ + a aᵀ + b bᵀ + c cᵀ) per face: xx, yy, zz, then xy, yz, zx.
+
+    Each term is summed s, a, b, c in that order (3 additions), then weighted.
+    """
+    diagonal, off = w[_SECOND:_SECOND + 3], w[_SECOND + 3:_SECOND + 6]
+    product = w[_T:_T + 3]
+    for k, point in enumerate((_S, _A, _B, _C)):
+        rows = w[point:point + 5]
+        rows[3:] = rows[:2]
+        if k == 0:
+            np.multiply(rows[:3], rows[:3], out=diagonal)
+            np.multiply(rows[:3], rows[1:4], out=off)
+            continue
+        np.multiply(rows[:3], rows[:3], out=product)
+        diagonal += product
+        np.multiply(rows[:3], rows[1:4], out=product)
+        off += product
+    w[_SECOND:_SECOND + 6] *= det
+
+
+def _weighted(det, bound, weights):
+    """Face terms times exact weights, and their bounds: one more rounding each."""
+    weighted = det * weights
+    return weighted, np.abs(weights) * bound * (1.0 + 2.0 * U) + 2.0 * U * np.abs(weighted)
+
+
+def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="volume"):
     """Integrate the volume moments of a closed, consistently wound surface.
 
     Parameters
@@ -210,6 +318,12 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK):
         Triangles, outward winding.
     order : {0, 1, 2}
         Highest moment to form: 0 volume, 1 first moments, 2 second moments.
+    weights : ndarray, shape (m,), float64, optional
+        A factor per face term, taken as exact (a cell's density, see
+        :mod:`massprops.volume`); its product adds one rounding to the bounds.
+    measure : {"volume", "area"}
+        "area" replaces each face's ``det`` by ``|(b − a) × (c − a)|`` (twice its
+        area), so the sums become surface integrals (:mod:`massprops.shell`).
 
     Returns
     -------
@@ -218,47 +332,32 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK):
     reference, scale_exp = reference_frame(vertices)
     scaled = np.ldexp(vertices - reference, -scale_exp)
     radius = float(np.abs(scaled).max())
-    sums = {name: [] for name in ("det", "abs", "bound", "area", "first", "second")}
-    refined = exact = 0
-    largest_chunk = 0
-    for start in range(0, faces.shape[0], chunk):
-        corner = scaled[faces[start:start + chunk]]          # (m, 3 corners, 3 axes)
-        a, b, c = corner[:, 0], corner[:, 1], corner[:, 2]
-        det, bound, normal, n_refined, n_exact = _face_dets(a, b, c)
-        refined += n_refined
-        exact += n_exact
-        largest_chunk = max(largest_chunk, det.shape[0])
-        area = np.sqrt(np.einsum("ij,ij->i", normal, normal))
-        rows = [det, np.abs(det), bound, area]
-        if order >= 1:
-            s = a + b + c
-            rows += list((det[:, None] * s).T)
-        scalars = np.sum(np.stack(rows), axis=1)            # pairwise, row by row
-        for name, value in zip(("det", "abs", "bound", "area"), scalars[:4]):
-            sums[name].append(value)
-        if order >= 1:
-            sums["first"].append(scalars[4:])
-        if order >= 2:
-            sums["second"].append(_second_moment_sum(det, corner, s))
-    gamma = _pairwise_gamma(largest_chunk) + U
-    det_sum = math.fsum(sums["det"])
-    abs_sum = math.fsum(sums["abs"]) * (1 + 2 * gamma)
-    bound_sum = math.fsum(sums["bound"]) * (1 + 2 * gamma)
+    faces = np.asarray(faces)
+    if faces.size and (faces.min() < 0 or faces.max() >= vertices.shape[0]):
+        raise IndexError("a face refers to a vertex that does not exist")
+    totals, refined, exact = _face_sums(np.ascontiguousarray(scaled.T), faces, order, measure, weights, chunk)
+    gamma = _pairwise_gamma(min(chunk, faces.shape[0])) + U
+    det_sum = totals[0]
+    abs_sum = totals[1] * (1 + 2 * gamma)
+    bound_sum = totals[2] * (1 + 2 * gamma)
     det_error = bound_sum + gamma * abs_sum
     first = np.zeros(3)
     first_error = 0.0
     if order >= 1:
-        first = np.array([math.fsum(col) for col in zip(*sums["first"])])
+        first = np.array(totals[4:7])
         first_error = 3 * radius * ((_gamma(3) + gamma) * abs_sum + (1 + _gamma(3)) * bound_sum)
     second = np.zeros((3, 3))
     second_error = 0.0
     if order >= 2:
-        flat = [math.fsum(col) for col in zip(*sums["second"])]
-        second = np.array([[flat[0], flat[3], flat[4]], [flat[3], flat[1], flat[5]], [flat[4], flat[5], flat[2]]])
-        batch_gamma = _gamma(4 * _BATCH) + _pairwise_gamma(largest_chunk // _BATCH + 1)
-        second_error = 12 * radius ** 2 * ((_gamma(9) + batch_gamma) * abs_sum + (1 + _gamma(9)) * bound_sum)
-    if abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
-        # The tetrahedra cancel heavily: redo the sums in double-double.
+        xx, yy, zz, xy, yz, zx = totals[7:13]
+        second = np.array([[xx, xy, zx], [xy, yy, yz], [zx, yz, zz]])
+        # Per face: s has 2 roundings, each product 1 more, the four-point sum 3,
+        # the weight det 1 (γ(9)); then the pairwise sum over the chunk.
+        second_error = 12 * radius ** 2 * ((_gamma(9) + gamma * (1 + _gamma(9))) * abs_sum
+                                           + (1 + _gamma(9)) * bound_sum)
+    if weights is None and measure == "volume" and abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
+        # The tetrahedra cancel heavily: redo the sums in double-double (unweighted
+        # volume sums only; weighted sums keep their, larger, rigorous bounds).
         from .integrate_dd import integrate_double_double
         dd = integrate_double_double(scaled, faces, order)
         det_sum, det_error = dd["det_sum"], dd["det_error"]
@@ -266,32 +365,46 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK):
         second, second_error = dd.get("second", second), dd.get("second_error", second_error)
         refined = faces.shape[0]
     return Moments(reference, scale_exp, order, det_sum, det_error, first, first_error, second, second_error,
-                   math.fsum(sums["area"]), faces.shape[0], refined, exact)
+                   totals[3], faces.shape[0], refined, exact)
 
 
 # Above this ratio Σ|det| / |Σ det| the fast pass loses more than ~4 bits to cancellation.
 _CANCELLATION_LIMIT = 16.0
 
 
-_BATCH = 32
-_PAIRS = (np.array([0, 1, 2, 0, 0, 1]), np.array([0, 1, 2, 1, 2, 2]))
+def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
+    """Chunk sums added exactly (``math.fsum``) across chunks, chunks spread over threads.
 
-
-def _second_moment_sum(det, corner, s):
-    """Σ det·(s sᵀ + a aᵀ + b bᵀ + c cᵀ) over a chunk: xx, yy, zz, xy, xz, yz.
-
-    Small batched matrix products (inner length 4·_BATCH, so each element's
-    rounding bound is γ(128)) followed by a pairwise sum over the batches.
+    numpy releases the GIL inside each operation, so threads run chunks in
+    parallel; every chunk's sums are the same whichever thread forms them and
+    ``fsum`` is exact, so the result does not depend on the thread count.
+    Threads: ``MASSPROPS_THREADS`` if set, else the CPUs this process may use.
     """
-    m = det.shape[0]
-    padded = -(-m // _BATCH) * _BATCH
-    points = np.zeros((padded, 4, 3))
-    points[:m, 0] = s
-    points[:m, 1:] = corner
-    weights = np.zeros(padded)
-    weights[:m] = det
-    points = points.reshape(padded // _BATCH, 4 * _BATCH, 3)
-    weighted = points * np.repeat(weights, 4).reshape(padded // _BATCH, 4 * _BATCH, 1)
-    batch = np.matmul(weighted.transpose(0, 2, 1), points)     # (batches, 3, 3)
-    six = batch[:, _PAIRS[0], _PAIRS[1]].T                     # (6, batches), contiguous rows
-    return np.sum(np.ascontiguousarray(six), axis=1)
+    starts = range(0, faces.shape[0], chunk)
+
+    def run(part):
+        work = np.empty((_ROWS, chunk))
+        return [_chunk_sums(scaled_axes, faces[start:start + chunk], order, measure,
+                            None if weights is None else weights[start:start + chunk], work) for start in part]
+
+    workers = min(_thread_count(), len(starts) // _CHUNKS_PER_THREAD)
+    if workers <= 1:
+        results = run(starts)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(workers) as pool:
+            results = [r for part in pool.map(run, [starts[k::workers] for k in range(workers)]) for r in part]
+    width = _SUMMED[order].stop - _DET
+    totals = [math.fsum(column) for column in zip(*(sums for sums, _, _ in results))] or [0.0] * width
+    return (totals + [0.0] * (13 - width), sum(r for _, r, _ in results), sum(e for _, _, e in results))
+
+
+_CHUNKS_PER_THREAD = 4                    # below this many chunks a thread costs more than it saves
+
+
+def _thread_count():
+    import os
+    wanted = os.environ.get("MASSPROPS_THREADS")
+    if wanted:
+        return max(1, int(wanted))
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

@@ -6,10 +6,8 @@ the right-hand normal points out of the solid.  Vertices are welded by exact
 coordinates only: massprops never merges points that are merely close.
 
 Grouping equal keys (welding vertices, pairing edges, finding duplicate faces)
-uses one mechanism, :func:`group_ids`: hash the keys into a table, keep the
-rows whose key equals the key stored in their slot, and retry the rest with a
-fresh hash.  It is exact (keys are compared, not just hashed), vectorised, and
-linear in the number of keys, so a million-triangle mesh needs no sort.
+uses one mechanism, :mod:`massprops.grouping`: exact, vectorised, and linear in
+the number of keys, so a million-triangle mesh needs no sort.
 """
 
 from __future__ import annotations
@@ -19,75 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshGeometryError, OpenMeshError, WindingError
+from .grouping import group_ids, mix, point_groups, table_rounds
 
 __all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
-
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-
-
-def _mix(h):
-    """splitmix64's finaliser, applied in place to a uint64 array (wraps mod 2**64)."""
-    h ^= h >> np.uint64(30)
-    h *= np.uint64(0xBF58476D1CE4E5B9)
-    h ^= h >> np.uint64(27)
-    h *= np.uint64(0x94D049BB133111EB)
-    h ^= h >> np.uint64(31)
-    return h
-
-
-def _hash_rows(keys, salt):
-    h = np.full(keys.shape[0], (salt + 1) * int(_GOLDEN) % 2 ** 64, dtype=np.uint64)
-    for column in keys.T:
-        h ^= column
-        _mix(h)
-    return h
-
-
-def group_ids(keys):
-    """Label rows of ``keys`` so that equal rows, and only equal rows, share a label.
-
-    Parameters
-    ----------
-    keys : ndarray, shape (n, w), dtype uint64
-        One key per row.
-
-    Returns
-    -------
-    labels : ndarray, shape (n,), int64
-        Dense labels ``0 .. k-1``, numbered in order of each group's first row.
-    first : ndarray, shape (k,), int64
-        For each label, the index of the first row that carries it.
-    """
-    keys = np.ascontiguousarray(keys, dtype=np.uint64)
-    n = keys.shape[0]
-    representative = np.empty(n, dtype=np.int64)
-    pending = np.arange(n, dtype=np.int64)
-    salt = 0
-    while pending.size:
-        bits = max(4, int(2 * pending.size - 1).bit_length())
-        slot = (_hash_rows(keys[pending], salt) >> np.uint64(64 - bits)).astype(np.int64)
-        table = np.empty(1 << bits, dtype=np.int64)
-        # With repeated slots one writer wins; every row of that writer's key
-        # resolves now, the others try again with a new salt.
-        table[slot] = pending
-        candidate = table[slot]
-        same = np.all(keys[candidate] == keys[pending], axis=1)
-        representative[pending[same]] = candidate[same]
-        pending = pending[~same]
-        salt += 1
-    # Relabel representatives densely, in order of first occurrence.
-    first_of_group = np.full(n, n, dtype=np.int64)
-    np.minimum.at(first_of_group, representative, np.arange(n, dtype=np.int64))
-    is_first = np.zeros(n, dtype=bool)
-    is_first[first_of_group[representative]] = True
-    dense = np.cumsum(is_first) - 1
-    return dense[first_of_group[representative]], np.flatnonzero(is_first)
-
-
-def coordinate_keys(points):
-    """Exact uint64 keys of float64 points, with -0.0 and 0.0 made equal."""
-    points = np.asarray(points, dtype=np.float64) + 0.0
-    return np.ascontiguousarray(points).view(np.uint64).reshape(points.shape[0], -1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,9 +52,24 @@ class TriangleMesh:
         """
         triangles = np.asarray(triangles)
         dtype = np.dtype(source_dtype or triangles.dtype)
-        corners = triangles.reshape(-1, 3).astype(np.float64)
-        labels, first = group_ids(coordinate_keys(corners))
-        return cls(corners[first], labels.reshape(-1, 3), dtype)
+        # One copy that also turns -0.0 into +0.0, so equal values have equal bits.
+        corners = np.add(triangles, 0.0, dtype=np.float32 if triangles.dtype == np.float32 else np.float64)
+        return cls.from_corners(corners.reshape(-1, 3), source_dtype=dtype)
+
+    @classmethod
+    def from_corners(cls, corners, *, source_dtype=None):
+        """Weld consecutive triangle corners, taking ownership of the array (no copy).
+
+        Parameters
+        ----------
+        corners : ndarray, shape (3m, 3), float32 or float64, C-contiguous
+            Corners of triangle k at rows 3k, 3k+1, 3k+2, with no ``-0.0``
+            (add ``0.0`` first); float32 values are welded on their own bits
+            and widened to float64 exactly.
+        """
+        labels, first = point_groups(corners)
+        return cls(corners[first].astype(np.float64), labels.reshape(-1, 3),
+                   np.dtype(source_dtype or corners.dtype))
 
     @property
     def triangles(self):
@@ -155,41 +102,79 @@ class MeshChecks:
         return dict(self.__dict__)
 
 
-def _edge_balance(faces, n_vertices):
-    """Per undirected edge: how often it is used, and forward minus backward uses."""
+def _edge_hash(faces, n_vertices):
+    """A hash per directed edge that is a bijection of its undirected edge, and its direction.
+
+    The lower vertex fills the top bits and an odd multiple of the higher one
+    the rest, so the hash table's slot (the top bits) is the lower vertex
+    followed by a multiplicative hash of the higher: welded labels follow the
+    face order, so consecutive edges land in nearby slots (cache-friendly),
+    and distinct edges of one vertex spread over its slots.
+    """
     tail = faces.ravel()
     head = faces[:, [1, 2, 0]].ravel()
-    low = np.minimum(tail, head).astype(np.uint64)
-    high = np.maximum(tail, head).astype(np.uint64)
     direction = np.sign(head - tail)
-    labels, _ = group_ids((low * np.uint64(n_vertices) + high)[:, None])
-    uses = np.bincount(labels)
-    balance = np.bincount(labels, weights=direction).astype(np.int64)
+    vertex_bits = max(1, int(n_vertices - 1).bit_length())
+    if vertex_bits > 32:
+        # The multiplicative half would no longer be a bijection: mix the plain key.
+        key = np.minimum(tail, head) * n_vertices + np.maximum(tail, head)
+        return mix(key.view(np.uint64)), direction
+    shift = np.uint64(64 - vertex_bits)
+    low = np.minimum(tail, head).view(np.uint64)
+    high = np.maximum(tail, head).view(np.uint64)
+    del tail, head
+    high *= np.uint64(0x9E3779B97F4A7C15)                # odd: a bijection mod 2**k
+    high &= np.uint64((1 << int(shift)) - 1)
+    low <<= shift
+    low |= high
+    return low, direction
+
+
+def _edge_balance(faces, n_vertices):
+    """Per undirected edge: how often it is used, and forward minus backward uses.
+
+    Both are indexed by one representative directed edge of each undirected
+    edge (zero at the other indices), which is all the checks need.
+    """
+    h, direction = _edge_hash(faces, n_vertices)
+    # The slots already follow the face order, so one pass over one table is
+    # as cache-friendly as the blocked passes and does half the work.
+    representative = table_rounds(h, np.arange(h.size, dtype=np.intp))
+    del h
+    balance = np.bincount(representative, weights=direction, minlength=direction.size).astype(np.int64)
+    uses = np.bincount(representative, minlength=direction.size)
     return uses, balance
 
 
 def face_components(faces, n_vertices):
     """Connected components of faces sharing vertices: (labels per face, count).
 
-    Hook-and-compress label propagation: each round hooks every face's vertices
-    to the smallest root among them, then halves paths until the roots are
-    stable; a few rounds suffice for meshes, with no Python loop over elements.
+    Hook-and-compress label propagation: each round hooks every root that a
+    face reaches to the smallest root of that face (any one such write wins;
+    roots only ever point to smaller roots, so no cycle forms and every round
+    with a face spanning two roots removes a root), then halves paths until
+    every vertex points at its root.  A few rounds suffice for meshes, with no
+    Python loop over elements.
     """
-    parent = np.arange(n_vertices, dtype=np.int64)
+    parent = np.arange(n_vertices, dtype=np.intp)
+    columns = [faces[:, k] for k in range(3)]
     while True:
-        roots = parent[faces]
-        smallest = roots.min(axis=1)
-        before = parent.copy()
-        for k in range(3):
-            np.minimum.at(parent, roots[:, k], smallest)
+        roots = [parent[column] for column in columns]
+        smallest = np.minimum(np.minimum(roots[0], roots[1]), roots[2])
+        hooked = False
+        for root in roots:
+            hook = root > smallest
+            if hook.any():
+                parent[root[hook]] = smallest[hook]
+                hooked = True
+        if not hooked:
+            break
         while True:
             grand = parent[parent]
             if np.array_equal(grand, parent):
                 break
             parent = grand
-        if np.array_equal(parent, before):
-            break
-    face_root = parent[faces[:, 0]]
+    face_root = parent[columns[0]]
     labels, first = group_ids(face_root.astype(np.uint64)[:, None])
     return labels, first.size
 

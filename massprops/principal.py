@@ -16,9 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Principal", "principal", "DEFAULT_RTOL"]
+__all__ = ["Principal", "principal", "axis_angle_bounds", "physical_checks", "DEFAULT_RTOL", "AXIS_ANGLE_TOLERANCE"]
 
 DEFAULT_RTOL = 1e-9
+# An axis whose angle bound exceeds this (radians) is not determined by the
+# tensor: its moment joins its nearest neighbour's degenerate group.
+AXIS_ANGLE_TOLERANCE = 1e-3
 _U = 2.0 ** -53
 # Below this length a local axis is taken to lie in the subspace's complement.
 _PROJECTION_FLOOR = 1e-6
@@ -27,13 +30,15 @@ _PROJECTION_FLOOR = 1e-6
 @dataclass(frozen=True)
 class Principal:
     """Principal moments (3,), axes (3, 3) as rows, degenerate index groups,
-    the moments' absolute error bound, and the tolerance used for grouping."""
+    the moments' absolute error bound, the tolerance used for grouping, and
+    per axis a bound on its angle error in radians (:func:`axis_angle_bounds`)."""
 
     moments: np.ndarray
     axes: np.ndarray
     degenerate: tuple
     moments_error: float
     tolerance: float
+    axes_error: tuple = ()
 
 
 def degenerate_groups(moments, tolerance):
@@ -49,6 +54,69 @@ def degenerate_groups(moments, tolerance):
     if len(current) > 1:
         groups.append(current)
     return groups
+
+
+def axis_angle_bounds(moments, norm_error, groups=()):
+    """Davis–Kahan bound on the angle of each principal axis, radians.
+
+    If the tensor is off by ``E`` with ``‖E‖₂ ≤ norm_error``, an axis whose
+    moment is ``gap`` away from the others' moments turns by at most
+    ``θ = asin(‖E‖ / (gap − ‖E‖))`` (the gap of the exact tensor is at least
+    ``gap − ‖E‖`` by Weyl); ``π/2`` when the gap does not exceed ``2‖E‖``.  For
+    an axis in a degenerate group the bound is that of the group's subspace
+    (the gap to the moments outside it; 0 when all three are equal): within
+    the subspace the axes are fixed by convention.
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Ascending principal moments.
+    norm_error : float
+        Bound on the spectral norm of the tensor's error (≤ 3 × the
+        elementwise bound).
+    groups : sequence of index groups
+        Degenerate groups, as :func:`degenerate_groups` returns them.
+
+    Returns
+    -------
+    tuple of 3 floats
+    """
+    member = {k: tuple(g) for g in groups for k in g}
+    bounds = []
+    for k in range(3):
+        inside = member.get(k, (k,))
+        gaps = [abs(moments[k] - moments[j]) for j in range(3) if j not in inside]
+        if not gaps:
+            bounds.append(0.0)
+            continue
+        gap = min(gaps) - norm_error
+        ratio = norm_error / gap if gap > 0 else np.inf
+        bounds.append(float(np.arcsin(ratio)) + 4 * _U if ratio < 1 else float(np.pi / 2))
+    return tuple(bounds)
+
+
+def physical_checks(moments, moments_error):
+    """Whether principal moments can belong to a rigid body, within their error bound.
+
+    Every real mass distribution has ``I1 > 0`` and ``I1 + I2 ≥ I3`` (equality
+    only for a flat lamina); physics engines reject tensors that break either.
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Ascending principal moments.
+    moments_error : float
+        Absolute bound on each moment's error.
+
+    Returns
+    -------
+    dict: ``positive_definite`` and ``triangle_inequality`` (bool), and
+    ``triangle_margin`` ``(I1 + I2 − I3) / I3``.
+    """
+    i1, i2, i3 = (float(m) for m in moments)
+    return {"positive_definite": bool(i1 > -moments_error),
+            "triangle_inequality": bool(i1 + i2 - i3 >= -3.0 * moments_error),
+            "triangle_margin": (i1 + i2 - i3) / i3 if i3 > 0 else None}
 
 
 def _canonical_sign(axis):
@@ -71,7 +139,8 @@ def _subspace_axes(basis):
     return chosen
 
 
-def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0):
+def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
+              angle_tolerance=AXIS_ANGLE_TOLERANCE):
     """Diagonalise an inertia tensor with the SPEC's conventions.
 
     Parameters
@@ -85,6 +154,9 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0):
     extra_tolerance : float
         Further absolute tolerance folded into the degeneracy test (e.g. the
         change the input's own resolution allows).
+    angle_tolerance : float
+        Radians: moments closer than the gap at which the Davis–Kahan bound
+        on their axes reaches this angle are degenerate too.
 
     Returns
     -------
@@ -96,7 +168,9 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0):
     scale = float(np.abs(moments).max())
     # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.
     moments_error = 3.0 * error + 64.0 * _U * float(np.linalg.norm(inertia))
-    tolerance = max(rtol * scale, moments_error, extra_tolerance)
+    # sin θ ≤ E / (gap − E) stays below sin(angle_tolerance) iff gap ≥ E (1 + 1/sin(angle_tolerance)).
+    axis_gap = moments_error * (1.0 + 1.0 / np.sin(angle_tolerance))
+    tolerance = max(rtol * scale, moments_error, extra_tolerance, axis_gap)
     groups = degenerate_groups(moments, tolerance)
     axes = [vectors[:, k] for k in range(3)]
     for group in groups:
@@ -108,4 +182,4 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0):
     a2 /= np.linalg.norm(a2)
     a3 = np.cross(a1, a2)
     return Principal(moments, np.array([a1, a2, a3]), tuple(tuple(g) for g in groups),
-                     moments_error, tolerance)
+                     moments_error, tolerance, axis_angle_bounds(moments, moments_error, groups))

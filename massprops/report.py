@@ -187,9 +187,13 @@ def to_csv(rows):
     return buffer.getvalue()
 
 
-def relative_difference(ours, theirs):
-    """max|ours − theirs| / max|ours| (0 when both are 0)."""
+def relative_difference(ours, theirs, *, floor=0.0):
+    """max|ours − theirs| / max(max|ours|, floor) (0 when both are 0).
+
+    ``floor`` keeps a quantity near zero (the center of mass of a centred
+    part) from being judged against its own rounding noise: pass its scale.
+    """
     ours, theirs = np.asarray(ours, float), np.asarray(theirs, float)
-    scale = float(np.abs(ours).max())
+    scale = max(float(np.abs(ours).max()), floor)
     diff = float(np.abs(ours - theirs).max())
     return diff / scale if scale else (0.0 if diff == 0 else math.inf)

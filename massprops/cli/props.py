@@ -29,6 +29,17 @@ def _parse_only(text):
     return set(wanted)
 
 
+def _density_map(ctx, param, text):
+    from ..errors import OptionError
+    from ..volume import parse_density_map
+    if text is None:
+        return None
+    try:
+        return parse_density_map(text)
+    except OptionError as exc:
+        raise click.BadParameter(str(exc), param_hint="--density-map") from None
+
+
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=True))
 @options.material_options
@@ -40,11 +51,18 @@ def _parse_only(text):
 @click.option("--only", "only", metavar="LIST",
               help="Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal.")
 @click.option("--check-trimesh", is_flag=True, help="Also compute with trimesh and report the relative differences.")
+@click.option("--density-field", metavar="NAME",
+              help="Volume meshes: per-cell density from the cell-data array NAME.")
+@click.option("--density-map", metavar="GROUP=VALUE,...", callback=_density_map,
+              help="Volume meshes: density per physical group / cell set (--density fills the other cells).")
+@click.option("--shell", type=float, metavar="THICKNESS",
+              help="Treat the surface (open or closed) as a sheet of this thickness in mesh units: "
+                   "area density = density × THICKNESS.")
 @options.repair_option
 @options.format_option("text", "json", "csv")
-def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, repair,
-          output_format):
-    """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB).
+def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
+          density_map, shell, repair, output_format):
+    """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB; volume meshes via meshio).
 
     Volume, mass, center of mass, inertia about the center of mass, principal
     moments and axes, each with an absolute error bound.  Exit 1 if any file
@@ -64,7 +82,7 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
 
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
-                                 only=wanted)
+                                 only=wanted, density_field=density_field, density_map=density_map, shell=shell)
         extra = None
         if check_trimesh:
             from ..crosscheck import trimesh_comparison

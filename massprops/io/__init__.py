@@ -65,4 +65,4 @@ def read(path):
 
 EXTENSIONS = _READERS
 
-from . import stl, obj, trimesh_formats  # noqa: E402,F401  (registration)
+from . import stl, obj, trimesh_formats, meshio_formats  # noqa: E402,F401  (registration)

@@ -41,4 +41,13 @@ def read(path):
     return TriangleMesh(np.array(vertices, dtype=np.float64).reshape(-1, 3), np.array(faces, dtype=np.int64))
 
 
+def write(path, vertices, faces, comment=""):
+    """Write ``v`` and ``f`` lines; coordinates with ``repr``, so they read back bit for bit."""
+    lines = [f"# {comment}\n"] if comment else []
+    lines += ["v %r %r %r\n" % (float(x), float(y), float(z)) for x, y, z in np.asarray(vertices, dtype=float)]
+    lines += ["f %d %d %d\n" % (a + 1, b + 1, c + 1) for a, b, c in np.asarray(faces).tolist()]
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.writelines(lines)
+
+
 register_format("obj", [".obj"], read)

@@ -1,0 +1,121 @@
+"""`massprops batch` throughput on many small parts, against a Python loop over trimesh.
+
+The corpus: 2,000 closed parts (quick: 200) of 1k–10k triangles, half binary
+STL, half OBJ, written once under ``benchmarks/_data/batch/``.  Measured:
+
+- files/s of ``run_batch`` (the code behind ``massprops batch``) with 1 and 2
+  worker processes, pool start-up and report writing included;
+- files/s of ``for f in files: trimesh.load(f).mass_properties``;
+- per-file overhead of the batch machinery: wall time of the one-worker run
+  minus the summed per-file ``elapsed_s`` of its report, over the file count.
+
+Speed is measured, never asserted; the machine is shared, so take the ratios
+as indicative.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import time
+
+import numpy as np
+
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_data", "batch")
+
+
+def _part(rng):
+    """A closed mesh of 1k–10k triangles: a perturbed icosphere or a prism, off the axes."""
+    from massprops import solids
+    from massprops.frames import Pose
+    if rng.random() < 0.5:
+        sphere = solids.icosphere(int(rng.integers(3, 5)), float(rng.uniform(0.5, 2.0)))
+        # a radial bump per vertex keeps the surface closed and star-shaped but not a sphere
+        bumped = sphere.vertices * rng.uniform(0.9, 1.1, size=(len(sphere.vertices), 1))
+        mesh = type(sphere)(bumped, sphere.faces)
+    else:
+        mesh = solids.regular_prism(int(rng.integers(251, 2500)), float(rng.uniform(0.5, 2.0)),
+                                    float(rng.uniform(0.2, 3.0)))
+    pose = Pose.from_quat(rng.normal(size=4), translation=rng.uniform(-5, 5, size=3))
+    return mesh.transformed(pose.rotation, pose.translation)
+
+
+def _write_obj(path, mesh):
+    with open(path, "w") as f:
+        np.savetxt(f, mesh.vertices, fmt="v %.17g %.17g %.17g")
+        np.savetxt(f, mesh.faces + 1, fmt="f %d %d %d")
+
+
+def corpus(count):
+    """Paths of ``count`` parts (made once, then reused), alternating binary STL and OBJ."""
+    from massprops.io.stl import write_binary
+    os.makedirs(DATA, exist_ok=True)
+    paths = []
+    for k in range(count):
+        path = os.path.join(DATA, f"part{k:05d}.{'stl' if k % 2 == 0 else 'obj'}")
+        if not os.path.exists(path):
+            mesh = _part(np.random.default_rng(k))
+            write_binary(path, mesh.triangles) if path.endswith(".stl") else _write_obj(path, mesh)
+        paths.append(path)
+    return paths
+
+
+def _trimesh_loop(paths):
+    """Wall time of the loop, and seconds per file."""
+    import trimesh
+    per_file = {}
+    start = time.perf_counter()
+    for path in paths:
+        t0 = time.perf_counter()
+        trimesh.load(path).mass_properties
+        per_file[path] = time.perf_counter() - t0
+    return time.perf_counter() - start, per_file
+
+
+def _ms_by_format(per_file):
+    """Mean milliseconds per file for each extension."""
+    by_ext = {}
+    for path, seconds in per_file.items():
+        by_ext.setdefault(os.path.splitext(path)[1], []).append(seconds)
+    return {ext: 1e3 * sum(v) / len(v) for ext, v in sorted(by_ext.items())}
+
+
+def _batch(paths, jobs, output):
+    from massprops.batch import run_batch
+    start = time.perf_counter()
+    summary = run_batch(paths, output=output, jobs=jobs)
+    wall = time.perf_counter() - start
+    with open(output, newline="") as f:
+        rows = list(csv.DictReader(f))
+    per_file = {r["file"]: float(r["elapsed_s"]) for r in rows if r["status"] == "ok"}
+    return wall, per_file, summary
+
+
+def run(quick: bool = False) -> str:
+    count = 200 if quick else 2000
+    paths = corpus(count)
+    report = os.path.join(DATA, "report.csv")
+    trimesh_s, trimesh_files = _trimesh_loop(paths)
+    wall1, batch_files, summary1 = _batch(paths, 1, report)
+    compute1 = sum(batch_files.values())
+    wall2, _, summary2 = _batch(paths, 2, report)
+    if summary1.failed or summary2.failed:
+        return f"batch failed on {summary1.failed} files — check {report}"
+    rate = {"trimesh loop": count / trimesh_s, "batch, 1 worker": count / wall1, "batch, 2 workers": count / wall2}
+    lines = [f"**batch** — {count} parts, 1k–10k triangles, binary STL + OBJ ({os.cpu_count()} cores)", "",
+             "| run | time (s) | files/s | vs trimesh loop |", "| --- | ---: | ---: | ---: |"]
+    for name, seconds in (("trimesh loop", trimesh_s), ("batch, 1 worker", wall1), ("batch, 2 workers", wall2)):
+        lines.append(f"| {name} | {seconds:.2f} | {rate[name]:.0f} | {rate[name] / rate['trimesh loop']:.2f}× |")
+    lines += ["", f"Per-file batch overhead (1 worker, wall − Σ elapsed_s): "
+                  f"{1e3 * (wall1 - compute1) / count:.2f} ms; per-file compute {1e3 * compute1 / count:.2f} ms; "
+                  f"speedup 1 → 2 workers: {wall1 / wall2:.2f}×", "",
+              "| format | massprops ms/file (elapsed_s) | trimesh.load + mass_properties ms/file |",
+              "| --- | ---: | ---: |"]
+    ours, theirs = _ms_by_format(batch_files), _ms_by_format(trimesh_files)
+    lines += [f"| {ext} | {ours[ext]:.2f} | {theirs[ext]:.2f} |" for ext in ours]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import sys
+    print(run(quick="--quick" in sys.argv))

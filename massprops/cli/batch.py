@@ -1,0 +1,123 @@
+"""``massprops batch PATH... -o report.csv``: one report over many files, in parallel or on Dask."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from . import options
+
+_SHOWN_FAILURES = 20
+
+
+class _Progress:
+    """click's progress bar on stderr, begun when the number of files to compute is known.
+
+    Nothing at all when stderr is not a terminal (logs, pipes) or with --quiet.
+    """
+
+    def __init__(self, quiet):
+        self.enabled = not quiet and sys.stderr.isatty()
+        self.bar = None
+
+    def start(self, total):
+        if self.enabled and total:
+            self.bar = click.progressbar(length=total, label="massprops batch", file=sys.stderr, show_pos=True,
+                                         show_eta=True)
+            self.bar.__enter__()
+
+    def update(self, outcome):
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None
+
+
+def _report_failures(summary):
+    for file, message in summary.failures[:_SHOWN_FAILURES]:
+        options.echo_error(f"{file}: {message}")
+    hidden = len(summary.failures) - _SHOWN_FAILURES
+    if hidden > 0:
+        click.echo(f"... and {hidden} more failed files (status=error in the report)", err=True)
+
+
+def _summary_line(summary):
+    line = f"{summary.ok} ok, {summary.failed} failed"
+    if summary.unchanged:
+        line += f" ({summary.unchanged} unchanged, reused)"
+    rate = f"{summary.files_per_s:.1f} files/s" if summary.computed else "nothing to compute"
+    return f"{line}; {summary.computed} computed in {summary.elapsed_s:.2f} s, {rate}"
+
+
+@click.command()
+@click.argument("paths", nargs=-1, required=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
+              help="Report file, written as files finish and sorted at the end.  Default: stdout when done.")
+@options.format_option("csv", "jsonl")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
+              help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
+@click.option("--resume", is_flag=True,
+              help="Keep the report's rows for files whose size and mtime are unchanged; compute the rest.")
+@click.option("-r", "--recursive", is_flag=True, help="Descend into sub-directories (and let ** match them).")
+@click.option("--scheduler", metavar="local|tcp://HOST:PORT",
+              help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar, failure list or summary line.")
+@options.material_options
+@options.pose_options
+@options.repair_option
+def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, density, total_mass, unit,
+          rotate, translate, repair):
+    """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
+
+    PATH is a file, a directory (its mesh files; --recursive for sub-directories),
+    a glob such as 'parts/**/*.stl', or @LIST, a text file of paths one a line.
+    CSV columns are the SPEC's (inertia about the center of mass, local axes;
+    Ixy, Ixz, Iyz are the tensor's own elements); --format jsonl writes the full
+    `props` objects.  A file that fails gets status=error and its message, and the
+    run goes on.  Exit 0 if every file is ok, 1 if any failed (the report is
+    still complete).
+    """
+    from .. import batch as batch_lib
+    from ..errors import MassPropsError
+
+    if resume and output is None:
+        raise click.UsageError("--resume needs the report file: give it with -o")
+    try:
+        files = batch_lib.expand_inputs(paths, recursive=recursive)
+    except MassPropsError as exc:
+        raise click.BadParameter(str(exc), param_hint="PATH") from None
+    pose = options.guarded(options.pose_from_options, rotate, translate)
+    settings = pose and batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair)
+    if settings is None or not options.guarded(batch_lib.check_settings, settings):
+        raise SystemExit(1)
+    summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet)
+    if summary.text is not None:
+        click.echo(summary.text, nl=False)
+    if not quiet:
+        for note in summary.notes:
+            click.echo(f"note: {note}", err=True)
+        _report_failures(summary)
+        click.echo(_summary_line(summary), err=True)
+    options.exit_with(summary.failed)
+
+
+def _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet):
+    """run_batch with a progress bar; Ctrl-C keeps the rows done and says how to go on."""
+    progress = _Progress(quiet)
+    try:
+        summary = options.guarded(batch_lib.run_batch, files, settings, output=output, output_format=output_format,
+                                  jobs=jobs, scheduler=scheduler, resume=resume, on_start=progress.start,
+                                  on_outcome=progress.update)
+    except KeyboardInterrupt:
+        progress.close()
+        kept = f"{output} keeps the files done; rerun with --resume to finish" if output else "nothing written"
+        click.echo(f"\ninterrupted: {kept}", err=True)
+        raise SystemExit(130) from None
+    progress.close()
+    if summary is None:
+        raise SystemExit(1)
+    return summary

@@ -1,0 +1,137 @@
+"""Volume meshes (VTU/VTK, Gmsh MSH, Abaqus INP, MED, XDMF, ...) through meshio, imported only when read.
+
+A file with volume cells becomes a :class:`massprops.volume.VolumeMesh`
+(surface cells in it, such as boundary-condition faces, are ignored); a file
+with surface cells only becomes a :class:`massprops.mesh.TriangleMesh`.
+Higher-order cells are integrated with straight edges through their corner
+nodes (meshio lists corners first), and a warning says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MeshFormatError
+from ..mesh import TriangleMesh
+from . import register_format
+
+__all__ = ["read", "EXTENSIONS"]
+
+EXTENSIONS = [".vtu", ".vtk", ".msh", ".inp", ".med", ".xdmf", ".xmf", ".mesh", ".meshb", ".e", ".exo",
+              ".ex2", ".h5m", ".ugrid", ".su2", ".avs", ".f3grid", ".bdf", ".fem", ".nas", ".vol", ".cgns",
+              ".mdpa", ".tec"]
+
+_VOLUME = {"tetra": 4, "pyramid": 5, "wedge": 6, "hexahedron": 8}
+_SURFACE = {"triangle": 3, "quad": 4}
+# Gmsh and Abaqus number a prism's first triangle with its normal towards the
+# second; VTK (meshio's order) the other way round.
+_MIRRORED_WEDGE = {".msh", ".inp"}
+_TAG_ARRAYS = ("gmsh:physical", "cell_tags", "medit:ref")
+
+
+def _base_type(cell_type, table):
+    """The linear type a (possibly higher-order) meshio cell type reduces to, or None."""
+    for name in table:
+        if cell_type == name or (cell_type.startswith(name) and cell_type[len(name):].isdigit()):
+            return name
+    return None
+
+
+def _load(path):
+    try:
+        import meshio
+    except ImportError:  # pragma: no cover - meshio is a core dependency
+        raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
+    try:
+        return meshio.read(path)
+    except Exception as exc:  # meshio raises many types for bad bytes
+        raise MeshFormatError(f"cannot parse the file ({type(exc).__name__}: {exc})".rstrip(), path=path,
+                              fix="check that the file is a complete mesh of this format") from None
+
+
+def read(path):
+    """Read a volume (or surface) mesh with meshio.
+
+    Returns
+    -------
+    VolumeMesh or TriangleMesh
+    """
+    import os
+
+    from ..volume import VolumeMesh
+
+    mesh = _load(path)
+    points = np.asarray(mesh.points, dtype=np.float64)
+    if points.shape[1:] == (2,):
+        points = np.column_stack([points, np.zeros(len(points))])
+    chosen, notes, higher = [], [], 0
+    for index, block in enumerate(mesh.cells):
+        base = _base_type(block.type, _VOLUME)
+        if base is None:
+            if block.dim == 3:
+                raise MeshFormatError(f"cells of type {block.type!r} are not supported", path=path,
+                                      fix="export tetrahedra, hexahedra, wedges or pyramids")
+            continue
+        cells = np.asarray(block.data, dtype=np.int64)[:, :_VOLUME[base]]
+        if base == "wedge" and os.path.splitext(path)[1].lower() in _MIRRORED_WEDGE:
+            cells = cells[:, [0, 2, 1, 3, 5, 4]]
+        higher += cells.shape[0] if block.type != base else 0
+        chosen.append((index, base, cells))
+    if not chosen:
+        return _surface(mesh, points, path)
+    if higher:
+        notes.append(f"{higher} higher-order cells integrated with straight edges (mid-side nodes ignored)")
+    blocks = tuple((base, cells) for _, base, cells in chosen)
+    indices = [index for index, _, _ in chosen]
+    cell_data = {name: np.concatenate([np.asarray(arrays[i]) for i in indices])
+                 for name, arrays in mesh.cell_data.items()}
+    return VolumeMesh(points, blocks, cell_data, _groups(mesh, chosen, cell_data), tuple(notes))
+
+
+def _groups(mesh, chosen, cell_data):
+    """Named cell groups: cell sets, and physical groups / tags by number and by name."""
+    offsets = np.cumsum([0] + [cells.shape[0] for _, _, cells in chosen])
+    groups = {}
+    for name, per_block in (getattr(mesh, "cell_sets", None) or {}).items():
+        if name.startswith("gmsh:"):
+            continue
+        members = [offsets[k] + np.asarray(per_block[index], dtype=np.int64)
+                   for k, (index, _, _) in enumerate(chosen)
+                   if index < len(per_block) and per_block[index] is not None and len(per_block[index])]
+        if members:
+            groups[name] = np.concatenate(members)
+    names = {}
+    for name, value in (getattr(mesh, "field_data", None) or {}).items():
+        value = np.asarray(value).ravel()
+        if value.size >= 2 and int(value[1]) == 3:
+            names.setdefault(int(value[0]), []).append(name)
+    for tag, families in (getattr(mesh, "cell_tags", None) or {}).items():
+        names.setdefault(int(tag), []).extend(families)
+    for array in _TAG_ARRAYS:
+        if array not in cell_data:
+            continue
+        tags = np.asarray(cell_data[array]).reshape(-1).astype(np.int64)
+        for tag in np.unique(tags):
+            members = np.flatnonzero(tags == tag)
+            for name in [str(int(tag))] + names.get(int(tag), []):
+                groups.setdefault(name, members)
+    return groups
+
+
+def _surface(mesh, points, path):
+    triangles = []
+    for block in mesh.cells:
+        base = _base_type(block.type, _SURFACE)
+        if base is None:
+            continue
+        cells = np.asarray(block.data, dtype=np.int64)[:, :_SURFACE[base]]
+        if base == "quad":
+            cells = np.vstack([cells[:, [0, 1, 2]], cells[:, [0, 2, 3]]])
+        triangles.append(cells)
+    if not triangles:
+        raise MeshFormatError("the file holds no volume cells and no surface cells", path=path,
+                              fix="export tetrahedra, hexahedra, wedges, pyramids, or a closed surface")
+    return TriangleMesh(points, np.vstack(triangles))
+
+
+register_format("meshio", EXTENSIONS, read)
