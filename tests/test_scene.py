@@ -371,3 +371,16 @@ def test_bad_scene_graphs_are_refused_with_the_node_named(tmp_path, runner):
     assert result.exit_code == 1 and "cannot parse" in result.stderr and str(garbage) in result.stderr
     result = _run(runner, _write(tmp_path, "part.stl", box))
     assert result.exit_code == 1 and "unknown scene format" in result.stderr
+
+
+def test_3mf_scene_matches_its_glb(tmp_path, runner):
+    """A 3MF scene graph (trimesh's reader, which needs lxml) gives the GLB's totals."""
+    glb, _, _ = _instanced_glb(tmp_path)
+    three_mf = tmp_path / "instanced.3mf"
+    import trimesh
+    trimesh.load(glb, process=False).export(three_mf)
+    from_glb, from_3mf = _json(runner, glb), _json(runner, three_mf)
+    assert from_3mf["stats"]["instances"] == 6
+    for key in ("mass", "center_of_mass", "inertia_com"):
+        a, b = np.array(from_3mf["total"][key]), np.array(from_glb["total"][key])
+        assert np.abs(a - b).max() <= 1e-13 * max(1.0, float(np.abs(b).max())), key
