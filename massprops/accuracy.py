@@ -25,7 +25,7 @@ import csv
 import io
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -46,13 +46,15 @@ FULL_LEVELS = (100, 1_000, 10_000, 100_000, 1_000_000)
 
 @dataclass(frozen=True)
 class Case:
-    """One mesh to measure: its name, the mesh, its size (largest extent) and optional smooth values."""
+    """One mesh to measure: its name, the mesh, its size (largest extent) and optional smooth values.
+
+    ``smooth`` is a :class:`massprops.analytic.Analytic` in the mesh's frame.
+    """
 
     name: str
     mesh: TriangleMesh
     size: float
     smooth: object = None
-    extra: dict = field(default_factory=dict)
 
 
 def relative_errors(values, reference, size):
@@ -103,17 +105,6 @@ def _timed(fn, repeat):
     return best, value
 
 
-def _massprops(mesh, repeat):
-    from .compute import mass_properties
-    seconds, result = _timed(lambda: mass_properties(mesh), repeat)
-    return seconds, result
-
-
-def _trimesh(mesh, repeat):
-    from .crosscheck import trimesh_values
-    return _timed(lambda: trimesh_values(mesh.vertices, mesh.faces), repeat)
-
-
 def _physical(inertia):
     """The float principal moments as a physics engine sees them: I1 > 0 and I1 + I2 ≥ I3."""
     inertia = np.asarray(inertia, dtype=float)
@@ -123,40 +114,41 @@ def _physical(inertia):
     return bool(i1 > 0 and i1 + i2 >= i3)
 
 
+def _values(source):
+    """volume, center_of_mass, inertia_com of a MassProperties or an Analytic."""
+    return {"volume": source.volume, "center_of_mass": source.center_of_mass, "inertia_com": source.inertia_com}
+
+
 def measure(case, *, repeat=None):
     """massprops and trimesh on one case against the exact (and smooth) values: one row dict."""
+    from .compute import mass_properties
+    from .crosscheck import trimesh_values
     from .exact import exact_properties
 
     mesh = case.mesh
     repeat = repeat or (3 if mesh.faces.shape[0] < 100_000 else 1)
     exact = exact_properties(mesh.triangles)
-    seconds, result = _massprops(mesh, repeat)
+    seconds, result = _timed(lambda: mass_properties(mesh), repeat)
+    trimesh_seconds, theirs = _timed(lambda: trimesh_values(mesh.vertices, mesh.faces), repeat)
     props = result.properties
-    ours = {"volume": props.volume, "center_of_mass": props.center_of_mass, "inertia_com": props.inertia_com}
-    trimesh_seconds, theirs = _trimesh(mesh, repeat)
+    ours = _values(props)
     ours_exact = relative_errors(ours, exact, case.size)
-    covered = (ours_exact["volume"] <= props.error.volume and ours_exact["center_of_mass"] <= props.error.center_of_mass
-               and ours_exact["inertia_com"] <= props.error.inertia_com)
     row = {"case": case.name, "triangles": int(mesh.faces.shape[0]), "massprops_s": seconds,
-           "trimesh_s": trimesh_seconds, "massprops_exact": ours_exact, "trimesh_exact": relative_errors(
-               theirs, exact, case.size), "bound_covers": covered,
+           "trimesh_s": trimesh_seconds, "massprops_exact": ours_exact,
+           "trimesh_exact": relative_errors(theirs, exact, case.size),
+           "bound_covers": all(ours_exact[key] <= getattr(props.error, key)
+                               for key in ("volume", "center_of_mass", "inertia_com")),
            "bound_rel_inertia": props.error.inertia_com / float(np.abs(props.inertia_com).max()),
-           "massprops_physical": _physical(props.inertia_com) and result.checks.get("triangle_inequality", True),
+           "massprops_physical": _physical(props.inertia_com) and result.checks["triangle_inequality"],
            "trimesh_physical": _physical(theirs["inertia_com"]),
-           "input_resolution": props.error.input_resolution.get("coordinates", 0.0)}
+           "input_resolution": props.error.input_resolution["coordinates"]}
     if case.smooth is not None:
-        smooth = {"volume": case.smooth.volume, "center_of_mass": case.smooth.center_of_mass,
-                  "inertia_com": case.smooth.inertia_com}
-        row["massprops_smooth"] = relative_errors(ours, smooth, case.size)
-        row["trimesh_smooth"] = relative_errors(theirs, smooth, case.size)
+        row["massprops_smooth"] = relative_errors(ours, _values(case.smooth), case.size)
+        row["trimesh_smooth"] = relative_errors(theirs, _values(case.smooth), case.size)
     return row
 
 
 # -- the smooth solids -----------------------------------------------------
-
-
-def _revolved(profile_points, n):
-    return solids.revolve(profile_points, n)
 
 
 def _segment(start, end, count):
@@ -189,15 +181,15 @@ def smooth_solid(name, triangles):
         k = max(1, n // 8)
         profile = np.vstack([_segment((0, -1), (0.5, -1), k), _segment((0.5, -1), (0.5, 1), 2 * k),
                              _segment((0.5, 1), (0, 1), k), [(0.0, 1.0)]])
-        mesh, values, size = _revolved(profile, n), analytic.cylinder_values(0.5, 2.0), 2.0
+        mesh, values, size = solids.revolve(profile, n), analytic.cylinder_values(0.5, 2.0), 2.0
     elif name == "cone":
         n = max(6, round(math.sqrt(triangles)))
         k = max(1, n // 6)
         profile = np.vstack([_segment((0, 0), (1, 0), k), _segment((1, 0), (0, 2), 2 * k), [(0.0, 2.0)]])
-        mesh, values, size = _revolved(profile, n), analytic.cone_values(1.0, 2.0), 2.0
+        mesh, values, size = solids.revolve(profile, n), analytic.cone_values(1.0, 2.0), 2.0
     else:
         raise ValueError(f"unknown smooth solid {name!r}")
-    return Case(f"{name}", solids.posed(mesh, POSE), size, values.posed(POSE))
+    return Case(name, solids.posed(mesh, POSE), size, values.posed(POSE))
 
 
 SMOOTH_SOLIDS = ("sphere", "cylinder", "cone", "torus", "ellipsoid")
@@ -357,7 +349,9 @@ def plot(rows, path):
         panel.grid(True, which="major", alpha=0.3)
     panels[0].set_ylabel("largest relative error (volume, COM, inertia)")
     panels[1].legend(fontsize=7, ncol=2)
-    figure.suptitle("massprops (o, solid) vs trimesh (x, dashed): error against run time, 100 to 1M triangles")
+    counts = [r["triangles"] for r in rows]
+    figure.suptitle(f"massprops (o, solid) vs trimesh (x, dashed): error against run time, "
+                    f"{min(counts)} to {max(counts)} triangles")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)

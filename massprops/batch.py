@@ -189,7 +189,6 @@ def run_one(path, settings=Settings(), output_format="csv"):
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair)
         obj = report.result_dict(result)
-        obj["file"] = path
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
     except Exception as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc)
@@ -247,6 +246,11 @@ def _run_pool(chunks, settings, output_format, jobs):
     try:
         futures = {pool.submit(run_chunk, c, settings, output_format): c for c in chunks}
         yield from _collect(futures, as_completed, output_format)
+    except BaseException:
+        # interrupted: what the workers are doing now would not be written, so stop them at once
+        for process in (getattr(pool, "_processes", None) or {}).values():
+            process.terminate()
+        raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 

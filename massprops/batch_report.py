@@ -14,6 +14,7 @@ import json
 import os
 
 from . import report
+from .errors import OptionError
 
 __all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_error"]
 
@@ -116,8 +117,13 @@ class ReportWriter:
         self.lines = {f: line for f, (line, _) in kept.items()}
         self.report_file = self.state_file = None
         if output is not None:
-            self.report_file = open(output, "w", encoding="utf-8", newline="")
-            self.state_file = open(state_path(output), "w", encoding="utf-8")
+            try:
+                self.report_file = open(output, "w", encoding="utf-8", newline="")
+                self.state_file = open(state_path(output), "w", encoding="utf-8")
+            except OSError as exc:
+                self.close()
+                raise OptionError(f"cannot write the report ({exc.strerror or exc})", path=output,
+                                  fix="give a path in an existing, writable folder") from None
             self.report_file.write(self.head + "".join(self.lines.values()))
             self.state_file.write(json.dumps(header) + "\n")
             self.state_file.writelines(json.dumps({"file": f, "stat": s}) + "\n" for f, (_, s) in kept.items())

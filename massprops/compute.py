@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from . import integrate as _integrate
 from .errors import MassPropsError, OptionError
 from .mesh import TriangleMesh, check_mesh
+from .parallel import PARALLEL_ABOVE, start
 from .properties import MassProperties
 from .resolution import annotate
 
@@ -128,8 +129,20 @@ def checked_moments(mesh, *, path=None, order=2, repair=False):
         from .repair import repair_mesh
         mesh, changes = repair_mesh(mesh)
         warnings += changes
-    checks = check_mesh(mesh, path=path)
-    moments = _integrate.integrate(mesh.vertices, mesh.faces, order=order)
+    # A large mesh is integrated in a second thread while it is checked; the
+    # moments are used only once the checks have passed.
+    threaded = mesh.faces.shape[0] > PARALLEL_ABOVE
+    integrated = start(_integrate.integrate, mesh.vertices, mesh.faces, order=order, threaded=threaded)
+    try:
+        checks = check_mesh(mesh, path=path)
+    except MassPropsError:
+        if threaded:
+            try:
+                integrated()          # let the thread finish; a refused mesh may fail in any way there
+            except Exception:         # noqa: BLE001
+                pass
+        raise
+    moments = integrated()
     orientation = "outward"
     if moments.det_sum < 0:
         moments = moments.negated()

@@ -107,30 +107,33 @@ def representatives(n, hash_rows):
     """
     if n == 0:
         return np.zeros(0, dtype=np.intp)
+    index_type = np.int32 if n < 2 ** 31 - 1 else np.intp     # half the memory when it fits
     h = np.empty(n, dtype=np.uint64)
-    local = np.empty(n, dtype=np.intp)
-    table = np.empty(4 * _BLOCK, dtype=np.intp)
+    local = np.empty(n, dtype=index_type)
+    table = np.empty(4 * _BLOCK, dtype=index_type)
     leaders = []
     for start in range(0, n, _BLOCK):
         block = slice(start, min(n, start + _BLOCK))
         h[block] = hash_rows(block.start, block.stop)
-        rows = np.arange(block.start, block.stop, dtype=np.intp)
+        rows = np.arange(block.start, block.stop, dtype=index_type)
         winner = _slot_winners(h[block], rows, 0, table)
         resolved = h[winner] == h[block]
         local[block] = np.where(resolved, winner, rows)
         leaders.append(rows[local[block] == rows])
     if len(leaders) == 1:
-        return table_rounds(h, np.arange(n, dtype=np.intp))
+        return table_rounds(h)
     leaders = np.concatenate(leaders)
-    position = np.empty(n, dtype=np.intp)
-    position[leaders] = np.arange(leaders.size, dtype=np.intp)
     leader_of = table_rounds(h[leaders], leaders)
-    del h, leaders
+    del h
+    position = local                  # reused: local is read once more, through position
+    local = local.copy()
+    position[leaders] = np.arange(leaders.size, dtype=index_type)
+    del leaders
     return leader_of[position[local]]
 
 
-def table_rounds(h, rows):
-    """Representatives among ``rows`` (ascending) whose hashes are ``h``: see :func:`representatives`.
+def table_rounds(h, rows=None):
+    """Representatives among ``rows`` (ascending; default 0..n-1) with hashes ``h``: see :func:`representatives`.
 
     Row numbers are scattered into a table by the top bits of the hash
     (written last row first, so that in each slot the earliest row wins); a
@@ -138,8 +141,9 @@ def table_rounds(h, rows):
     hash won their slot) retry with a remixed slot.  Rows of equal hash always
     share a slot, so they resolve together, to one representative.
     """
-    index = np.arange(h.size, dtype=np.intp)
+    index = np.arange(h.size, dtype=np.int32 if h.size < 2 ** 31 - 1 else np.intp)
     representative = _slot_winners(h, index, 0)
+    del index
     pending = np.flatnonzero(h[representative] != h)
     salt = 1
     while pending.size:
@@ -148,7 +152,7 @@ def table_rounds(h, rows):
         representative[pending[same]] = candidate[same]
         pending = pending[~same]
         salt += 1
-    return rows[representative]
+    return representative if rows is None else rows[representative]
 
 
 def _slot_winners(h, rows, salt, table=None):
@@ -159,7 +163,9 @@ def _slot_winners(h, rows, salt, table=None):
     # The shifted hash is below 2**bits, so its bits read as a valid intp index.
     slot = np.right_shift(h, np.uint64(64 - bits)).view(np.intp)
     if table is None or table.size < 1 << bits:
-        table = np.empty(1 << bits, dtype=np.intp)
+        # Row numbers below 2**31 fit in half the memory (and cache).
+        small = rows.size == 0 or rows[-1] < 2 ** 31 - 1
+        table = np.empty(1 << bits, dtype=np.int32 if small else np.intp)
     table[slot[::-1]] = rows[::-1]
     return table[slot]
 
@@ -188,14 +194,18 @@ def _exact_representatives(keys):
 def _dense_labels(representative):
     """Labels 0..k-1 in order of each group's first row, and those first rows."""
     n = representative.shape[0]
-    rows = np.arange(n, dtype=np.intp)
-    if not np.all(representative <= rows):
+    is_first = np.empty(n, dtype=bool)
+    earliest = True
+    for start in range(0, n, _BLOCK):       # blocks: no full-size row-number array
+        block = representative[start:start + _BLOCK]
+        rows = np.arange(start, start + block.size, dtype=block.dtype)
+        earliest &= bool(np.all(block <= rows))
+        np.equal(block, rows, out=is_first[start:start + block.size])
+    if not earliest:
         # Some representative is not its group's first row: take the minimum.
         first_of_group = np.full(n, n, dtype=np.intp)
-        np.minimum.at(first_of_group, representative, rows)
-        representative = first_of_group[representative]
-    is_first = representative == rows
-    del rows
+        np.minimum.at(first_of_group, representative, np.arange(n, dtype=np.intp))
+        return _dense_labels(first_of_group[representative])
     dense = np.cumsum(is_first, dtype=np.int64)
     dense -= 1
     return dense[representative], np.flatnonzero(is_first)

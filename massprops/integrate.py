@@ -377,8 +377,8 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
 
     numpy releases the GIL inside each operation, so threads run chunks in
     parallel; every chunk's sums are the same whichever thread forms them and
-    ``fsum`` is exact, so the result does not depend on the thread count.
-    Threads: ``MASSPROPS_THREADS`` if set, else the CPUs this process may use.
+    ``fsum`` is exact, so the result does not depend on the thread count
+    (:func:`massprops.parallel.thread_count`).
     """
     starts = range(0, faces.shape[0], chunk)
 
@@ -387,7 +387,9 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
         return [_chunk_sums(scaled_axes, faces[start:start + chunk], order, measure,
                             None if weights is None else weights[start:start + chunk], work) for start in part]
 
-    workers = min(_thread_count(), len(starts) // _CHUNKS_PER_THREAD)
+    from .parallel import thread_count
+
+    workers = min(thread_count(), len(starts) // _CHUNKS_PER_THREAD)
     if workers <= 1:
         results = run(starts)
     else:
@@ -400,11 +402,3 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
 
 
 _CHUNKS_PER_THREAD = 4                    # below this many chunks a thread costs more than it saves
-
-
-def _thread_count():
-    import os
-    wanted = os.environ.get("MASSPROPS_THREADS")
-    if wanted:
-        return max(1, int(wanted))
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

@@ -18,6 +18,7 @@ import numpy as np
 
 from .errors import MeshGeometryError, OpenMeshError, WindingError
 from .grouping import group_ids, mix, point_groups, table_rounds
+from .parallel import PARALLEL_ABOVE, start
 
 __all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
 
@@ -111,18 +112,24 @@ def _edge_hash(faces, n_vertices):
     face order, so consecutive edges land in nearby slots (cache-friendly),
     and distinct edges of one vertex spread over its slots.
     """
-    tail = faces.ravel()
-    head = faces[:, [1, 2, 0]].ravel()
-    direction = np.sign(head - tail)
+    m = faces.shape[0]
+    low, high = np.empty((m, 3), dtype=np.int64), np.empty((m, 3), dtype=np.int64)
+    direction = np.empty((m, 3), dtype=np.int8)
+    for k in range(3):
+        tail, head = faces[:, k], faces[:, (k + 1) % 3]
+        np.minimum(tail, head, out=low[:, k])
+        np.maximum(tail, head, out=high[:, k])
+        direction[:, k] = head > tail
+        direction[:, k] -= head < tail
+    low, high, direction = low.ravel(), high.ravel(), direction.ravel()
     vertex_bits = max(1, int(n_vertices - 1).bit_length())
     if vertex_bits > 32:
         # The multiplicative half would no longer be a bijection: mix the plain key.
-        key = np.minimum(tail, head) * n_vertices + np.maximum(tail, head)
-        return mix(key.view(np.uint64)), direction
+        low *= n_vertices
+        low += high
+        return mix(low.view(np.uint64)), direction
     shift = np.uint64(64 - vertex_bits)
-    low = np.minimum(tail, head).view(np.uint64)
-    high = np.maximum(tail, head).view(np.uint64)
-    del tail, head
+    low, high = low.view(np.uint64), high.view(np.uint64)
     high *= np.uint64(0x9E3779B97F4A7C15)                # odd: a bijection mod 2**k
     high &= np.uint64((1 << int(shift)) - 1)
     low <<= shift
@@ -139,9 +146,10 @@ def _edge_balance(faces, n_vertices):
     h, direction = _edge_hash(faces, n_vertices)
     # The slots already follow the face order, so one pass over one table is
     # as cache-friendly as the blocked passes and does half the work.
-    representative = table_rounds(h, np.arange(h.size, dtype=np.intp))
+    representative = table_rounds(h)
     del h
-    balance = np.bincount(representative, weights=direction, minlength=direction.size).astype(np.int64)
+    # Small integers, exact in float64 (bincount's weights are float64).
+    balance = np.bincount(representative, weights=direction, minlength=direction.size)
     uses = np.bincount(representative, minlength=direction.size)
     return uses, balance
 
@@ -157,26 +165,26 @@ def face_components(faces, n_vertices):
     Python loop over elements.
     """
     parent = np.arange(n_vertices, dtype=np.intp)
-    columns = [faces[:, k] for k in range(3)]
     while True:
-        roots = [parent[column] for column in columns]
-        smallest = np.minimum(np.minimum(roots[0], roots[1]), roots[2])
-        hooked = False
-        for root in roots:
-            hook = root > smallest
-            if hook.any():
-                parent[root[hook]] = smallest[hook]
-                hooked = True
-        if not hooked:
+        roots = parent[faces]
+        smallest = np.minimum(np.minimum(roots[:, 0], roots[:, 1]), roots[:, 2])[:, None]
+        hook = roots > smallest
+        if not hook.any():
             break
+        parent[roots[hook]] = np.broadcast_to(smallest, roots.shape)[hook]
         while True:
             grand = parent[parent]
             if np.array_equal(grand, parent):
                 break
             parent = grand
-    face_root = parent[columns[0]]
-    labels, first = group_ids(face_root.astype(np.uint64)[:, None])
-    return labels, first.size
+    face_root = roots[:, 0]
+    is_root = np.zeros(n_vertices, dtype=bool)
+    is_root[face_root] = True
+    count = int(np.count_nonzero(is_root))
+    if count == 1:
+        return np.zeros(faces.shape[0], dtype=np.int64), 1
+    labels, _ = group_ids(face_root.astype(np.uint64)[:, None])
+    return labels, count
 
 
 def signed_volumes_by_shell(vertices, faces, shell_labels, n_shells):
@@ -236,10 +244,12 @@ def check_mesh(mesh, path=None):
             fix="re-export the mesh; non-finite coordinates cannot be repaired")
     degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
                                       | (faces[:, 2] == faces[:, 0])))
+    # Shells are found in a second thread while the edges are matched.
+    components = start(face_components, faces, vertices.shape[0], threaded=faces.shape[0] > PARALLEL_ABOVE)
     uses, balance = _edge_balance(faces, vertices.shape[0])
+    labels, n_shells = components()
     if np.any(balance):
         _refuse_unbalanced(faces, uses, balance, path)
-    labels, n_shells = face_components(faces, vertices.shape[0])
     outside = 0
     if n_shells > 1:
         outside = _inward_shells_outside(vertices, faces, labels, n_shells)

@@ -84,6 +84,9 @@ def test_float32_far_from_origin_reports_its_quantisation_step(tmp_path):
     assert area == 6.0
     assert resolution["volume"] == pytest.approx(math.sqrt(3) * step / 2 * area, rel=1e-12)
     assert any("float32" in w and f"{step:.2g}" in w for w in result.warnings)
+    # A given total mass does not move; the derived density does, and the inertia with it.
+    heavy = mass_properties(_far_box(tmp_path), mass=7.0).properties.error.input_resolution
+    assert heavy["mass"] == 0.0 and heavy["inertia_com"] > 7.0 * resolution["inertia_com"]
     # The same coordinates held as float64 resolve a billion times finer, and nothing is said.
     mesh = solids.box((1.0, 1.0, 1.0), (1e5, 1e5, -1e5))
     fine = mass_properties(mesh)

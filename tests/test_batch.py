@@ -151,7 +151,7 @@ def test_jsonl_holds_the_props_objects(runner, corpus, tmp_path):
 
 def test_stdout_report_when_no_output_file(runner, corpus):
     good, _ = corpus
-    result = _invoke(runner, *sorted(good)[:2], "--jobs", "1", "--quiet")
+    result = _invoke(runner, *sorted(good)[:2], "--jobs", "1", "--quiet", "-o", "-")
     assert result.exit_code == 0 and result.stderr == ""
     lines = result.stdout.splitlines()
     assert lines[0] == SPEC_HEADER and [line.split(",")[0] for line in lines[1:]] == sorted(good)[:2]
@@ -287,6 +287,8 @@ def test_usage_and_option_errors(runner, corpus, tmp_path, monkeypatch):
     result = _invoke(runner, some, "-o", tmp_path / "r.csv", "--density", "-1")
     assert result.exit_code == 1 and "density" in result.stderr and "Traceback" not in result.output
     assert not (tmp_path / "r.csv").exists()
+    result = _invoke(runner, some, "-o", tmp_path / "no_such_folder" / "r.csv")
+    assert result.exit_code == 1 and "cannot write the report" in result.stderr
     monkeypatch.setitem(__import__("sys").modules, "dask.distributed", None)
     result = _invoke(runner, some, "-o", tmp_path / "r.csv", "--scheduler", "local")
     assert result.exit_code == 1 and 'pip install "massprops[dask]"' in result.stderr

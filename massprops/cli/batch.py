@@ -56,7 +56,7 @@ def _summary_line(summary):
 @click.command()
 @click.argument("paths", nargs=-1, required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
-              help="Report file, written as files finish and sorted at the end.  Default: stdout when done.")
+              help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")
 @options.format_option("csv", "jsonl")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
               help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
@@ -84,6 +84,8 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     from .. import batch as batch_lib
     from ..errors import MassPropsError
 
+    if output == "-":
+        output = None
     if resume and output is None:
         raise click.UsageError("--resume needs the report file: give it with -o")
     try:
