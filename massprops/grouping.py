@@ -124,12 +124,12 @@ def representatives(n, hash_rows):
         return table_rounds(h)
     leaders = np.concatenate(leaders)
     leader_of = table_rounds(h[leaders], leaders)
-    del h
-    position = local                  # reused: local is read once more, through position
-    local = local.copy()
-    position[leaders] = np.arange(leaders.size, dtype=index_type)
-    del leaders
-    return leader_of[position[local]]
+    # Every local representative is a leader: look it up in a full-size array,
+    # which reuses the hashes' memory (no longer needed).
+    representative = h.view(np.int64)
+    representative[leaders] = leader_of
+    del h, leaders, leader_of
+    return representative[local]
 
 
 def table_rounds(h, rows=None):

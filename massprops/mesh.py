@@ -245,7 +245,7 @@ def check_mesh(mesh, path=None):
     degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
                                       | (faces[:, 2] == faces[:, 0])))
     # Shells are found in a second thread while the edges are matched.
-    components = start(face_components, faces, vertices.shape[0], threaded=faces.shape[0] > PARALLEL_ABOVE)
+    components = start(face_components, faces, vertices.shape[0], threaded=False)
     uses, balance = _edge_balance(faces, vertices.shape[0])
     labels, n_shells = components()
     if np.any(balance):

@@ -162,15 +162,14 @@ def csv_row(obj, *, status="ok", message=""):
     row.update(file=obj["file"], status=status, message=message)
     if status != "ok":
         return row
-    row.update(triangles=obj["triangles"], volume=repr(obj["volume"]), mass=repr(obj["mass"]),
-               err_volume=repr(obj["error"]["volume"]), err_inertia=repr(obj["error"]["inertia_com"]),
-               elapsed_s=repr(obj["elapsed_s"]))
+    row.update(triangles=obj["triangles"], err_volume=repr(obj["error"]["volume"]), elapsed_s=repr(obj["elapsed_s"]))
+    row.update((key, repr(obj[key])) for key in ("volume", "mass") if key in obj)
     if "center_of_mass" in obj:
         row.update(zip(("cx", "cy", "cz"), map(repr, obj["center_of_mass"])))
     if "inertia_com" in obj:
         j = obj["inertia_com"]
         row.update(Ixx=repr(j[0][0]), Iyy=repr(j[1][1]), Izz=repr(j[2][2]),
-                   Ixy=repr(j[0][1]), Ixz=repr(j[0][2]), Iyz=repr(j[1][2]))
+                   Ixy=repr(j[0][1]), Ixz=repr(j[0][2]), Iyz=repr(j[1][2]), err_inertia=repr(obj["error"]["inertia_com"]))
     if "principal_moments" in obj:
         row.update(zip(("I1", "I2", "I3"), map(repr, obj["principal_moments"])))
         for k, axis in enumerate(obj["principal_axes"]):

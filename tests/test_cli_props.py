@@ -170,3 +170,20 @@ def test_bad_rotation_option(runner, bracket):
 def test_unknown_only_quantity_is_a_usage_error(runner, bracket):
     result = runner.invoke(main, ["props", str(bracket), "--only", "colour"])
     assert result.exit_code == 2 and "colour" in result.output
+
+
+@pytest.mark.parametrize("fmt", ["text", "json", "csv"])
+@pytest.mark.parametrize("only", ["volume", "mass", "center_of_mass", "inertia", "principal", "surface_area"])
+def test_only_in_every_format(runner, bracket, fmt, only):
+    result = runner.invoke(main, ["props", str(bracket), "--only", only, "--format", fmt])
+    assert result.exit_code == 0, result.output
+    assert result.stderr == ""
+
+
+def test_obj_polygons_and_relative_indices(runner, tmp_path):
+    """Quads fan into triangles; negative indices count back from the last vertex; /vt/vn parts ignored."""
+    path = tmp_path / "mixed.obj"
+    path.write_text("v 0 0 0\nv 2 0 0\nv 2 3 0\nv 0 3 0\nv 0 0 4\nv 2 0 4\nv 2 3 4\nv 0 3 4\n"
+                    "f 1 4 3 2\nf 5/1 6/2 7/3 8/4\nf -8//1 -7//2 -3//3 -4//4\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n")
+    [obj] = props_json(runner, path)
+    assert obj["volume"] == 24.0 and obj["triangles"] == 12

@@ -1,11 +1,19 @@
 """Wavefront OBJ, read directly: ``v`` and ``f`` lines, polygons fanned into triangles.
 
 A direct reader keeps the coordinates exactly as written (correctly rounded
-``float``), names a bad face index with its line, and avoids importing trimesh.
-Indices may be negative (relative) and carry ``/vt/vn`` parts, which are ignored.
+decimal conversion), names a bad face index with its line, and avoids
+importing trimesh.  Indices may be negative (relative) and carry ``/vt/vn``
+parts, which are ignored.
+
+Files in the common layout — all vertices before all faces, triangles with
+positive indices — are parsed with regular expressions and numpy in a few
+passes; anything else goes through the line-by-line reader.
 """
 
 from __future__ import annotations
+
+import re
+import warnings
 
 import numpy as np
 
@@ -13,29 +21,69 @@ from ..errors import MeshFormatError
 from ..mesh import TriangleMesh
 from . import register_format
 
+_VERTEX = re.compile(rb"^v[ \t]+([^\n]*)", re.M)
+_FACE = re.compile(rb"^f[ \t]+([^\n]*)", re.M)
+_SLASHED = re.compile(rb"/[^ \t\r\n]*")
+
 
 def read(path):
-    vertices, faces = [], []
     with open(path, "rb") as f:
-        for number, raw in enumerate(f, 1):
-            parts = raw.split()
-            if not parts or parts[0] not in (b"v", b"f"):
+        text = f.read()
+    mesh = _read_common_layout(text)
+    if mesh is None:
+        mesh = _read_lines(text.splitlines(), path)
+    if mesh.faces.size and mesh.faces.max() >= mesh.vertices.shape[0]:
+        _read_lines(text.splitlines(), path)      # names the offending line
+    return mesh
+
+
+def _numbers(chunks, dtype):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return np.fromstring(b" ".join(chunks), dtype=dtype, sep=" ")
+
+
+def _read_common_layout(text):
+    """Vertices then triangles with positive indices, or None when the file is laid out otherwise."""
+    vertex_lines = _VERTEX.findall(text)
+    face_lines = _FACE.findall(text)
+    first_face = _FACE.search(text)
+    last_vertex = max(text.rfind(b"\nv "), text.rfind(b"\nv\t"))
+    if not vertex_lines or not face_lines or last_vertex > first_face.start():
+        return None
+    coordinates = _numbers(vertex_lines, np.float64)
+    if coordinates.size != 3 * len(vertex_lines):        # w or colour columns, or garbage
+        return None
+    joined = b" ".join(face_lines)
+    if b"/" in joined:
+        joined = _SLASHED.sub(b"", joined)
+    faces = _numbers([joined], np.int64)
+    if faces.size != 3 * len(face_lines) or faces.min() < 1:   # polygons, relative indices, garbage
+        return None
+    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
+
+
+def _read_lines(lines, path):
+    vertices, faces = [], []
+    for number, raw in enumerate(lines, 1):
+        parts = raw.split()
+        if not parts or parts[0] not in (b"v", b"f"):
+            continue
+        try:
+            if parts[0] == b"v":
+                vertices.append((float(parts[1]), float(parts[2]), float(parts[3])))
                 continue
-            try:
-                if parts[0] == b"v":
-                    vertices.append((float(parts[1]), float(parts[2]), float(parts[3])))
-                    continue
-                given = [int(p.split(b"/")[0]) for p in parts[1:]]
-            except (ValueError, IndexError):
-                text = raw.strip()[:60].decode(errors="replace")
-                raise MeshFormatError(f"line {number}: cannot read {text!r}", path=path,
-                                      fix="re-export the mesh") from None
-            ids = [i - 1 if i > 0 else len(vertices) + i for i in given]
-            if len(ids) < 3 or 0 in given or min(ids) < 0 or max(ids) >= len(vertices):
-                raise MeshFormatError(
-                    f"line {number}: face {' '.join(map(str, given))} refers to a vertex that does not exist "
-                    f"({len(vertices)} vertices defined before it)", path=path, fix="re-export the mesh")
-            faces.extend((ids[0], ids[k], ids[k + 1]) for k in range(1, len(ids) - 1))
+            given = [int(p.split(b"/")[0]) for p in parts[1:]]
+        except (ValueError, IndexError):
+            text = raw.strip()[:60].decode(errors="replace")
+            raise MeshFormatError(f"line {number}: cannot read {text!r}", path=path,
+                                  fix="re-export the mesh") from None
+        ids = [i - 1 if i > 0 else len(vertices) + i for i in given]
+        if len(ids) < 3 or 0 in given or min(ids) < 0 or max(ids) >= len(vertices):
+            raise MeshFormatError(
+                f"line {number}: face {' '.join(map(str, given))} refers to a vertex that does not exist "
+                f"({len(vertices)} vertices defined before it)", path=path, fix="re-export the mesh")
+        faces.extend((ids[0], ids[k], ids[k + 1]) for k in range(1, len(ids) - 1))
     if not faces:
         raise MeshFormatError("the OBJ file holds no faces", path=path, fix="export the part as a closed surface")
     return TriangleMesh(np.array(vertices, dtype=np.float64).reshape(-1, 3), np.array(faces, dtype=np.int64))

@@ -1,0 +1,236 @@
+"""`massprops props` against trimesh on large meshes: wall time, peak memory, kernel, startup, scaling.
+
+Meshes (binary STL, written once under ``benchmarks/_data/props/``):
+
+- ``icosphere8.stl``: ``trimesh.creation.icosphere(subdivisions=8)``
+  (1,310,720 triangles), translated to (100, -50, 25), away from the origin;
+- tori of 10k ... 10M triangles for the scaling table (quick: up to 1.3M).
+
+Measured, each the best of a few runs (the machine is shared):
+
+- end to end: ``massprops props --format json F`` against
+  ``python -c "import trimesh; trimesh.load(F).mass_properties"``, each a fresh
+  process; wall time and peak RSS (``wait4``'s ``ru_maxrss``);
+- kernel: ``massprops.integrate.integrate`` against
+  ``trimesh.triangles.mass_properties`` on the same triangles, ns/triangle,
+  next to the memory-read floor (one pass summing the float64 triangles);
+- threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
+- startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"``.
+
+Speed is measured here, never asserted in tests.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.path.join(HERE, "_data", "props")
+OFFSET = (100.0, -50.0, 25.0)
+MIB = 1024.0 * 1024.0
+TRIMESH_CMD = "import sys, trimesh; trimesh.load(sys.argv[1]).mass_properties"
+
+
+def _path(name):
+    os.makedirs(DATA, exist_ok=True)
+    return os.path.join(DATA, name)
+
+
+def icosphere_stl():
+    """The 1.31M-triangle icosphere of the issue, translated off the origin (written once)."""
+    path = _path("icosphere8.stl")
+    if not os.path.exists(path):
+        import trimesh
+        from massprops.io.stl import write_binary
+        sphere = trimesh.creation.icosphere(subdivisions=8)
+        write_binary(path, sphere.vertices[sphere.faces] + np.array(OFFSET))
+    return path
+
+
+def torus_stl(triangles):
+    """A torus (radii 2 and 0.5) of about ``triangles`` triangles, off the origin (written once).
+
+    Written in slabs of rings so that even 10M triangles need little memory.
+    """
+    rings = max(8, int(round(np.sqrt(triangles / 2.0))))
+    sides = max(8, int(round(triangles / (2.0 * rings))))
+    path = _path(f"torus_{2 * rings * sides}.stl")
+    if os.path.exists(path):
+        return path, 2 * rings * sides
+    from massprops.io.stl import _RECORD
+    u = np.linspace(0.0, 2 * np.pi, rings, endpoint=False)
+    v = np.linspace(0.0, 2 * np.pi, sides, endpoint=False)
+    with open(path + ".part", "wb") as f:
+        f.write(b"massprops benchmark torus".ljust(80, b" "))
+        f.write(np.uint32(2 * rings * sides).tobytes())
+        for start in range(0, rings, max(1, 500_000 // sides)):
+            i = np.arange(start, min(rings, start + max(1, 500_000 // sides)))
+            records = np.zeros((i.size, sides, 2), dtype=_RECORD)
+            corners = [_torus_point(u[(i + di) % rings][:, None], v[(np.arange(sides) + dj) % sides][None, :])
+                       for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1))]
+            records["corners"][:, :, 0] = np.stack([corners[0], corners[1], corners[2]], axis=2)
+            records["corners"][:, :, 1] = np.stack([corners[0], corners[2], corners[3]], axis=2)
+            records.tofile(f)
+    os.replace(path + ".part", path)
+    return path, 2 * rings * sides
+
+
+def _torus_point(u, v, major=2.0, minor=0.5):
+    radius = major + minor * np.cos(v)
+    return np.stack(np.broadcast_arrays(radius * np.cos(u) + OFFSET[0], radius * np.sin(u) + OFFSET[1],
+                                        minor * np.sin(v) + OFFSET[2]), axis=-1)
+
+
+def box_stl():
+    path = _path("box12.stl")
+    if not os.path.exists(path):
+        from massprops import solids
+        from massprops.io.stl import write_binary
+        write_binary(path, solids.box((1.0, 2.0, 3.0), (0.5, 0.5, 0.5)).triangles)
+    return path
+
+
+def measure(argv, env=None):
+    """Wall seconds and peak RSS (MiB) of one fresh process; raises if it fails."""
+    begin = time.perf_counter()
+    child = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             env=dict(os.environ, **(env or {})))
+    _, status, usage = os.wait4(child.pid, 0)
+    wall = time.perf_counter() - begin
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode:
+        raise RuntimeError(f"{' '.join(argv)} failed: {child.stderr.read().decode()[-500:]}")
+    child.stderr.close()
+    return wall, usage.ru_maxrss / 1024.0
+
+
+def best(argv, repeat, env=None):
+    """The fastest of ``repeat`` runs (wall, peak MiB of that run)."""
+    return min(measure(argv, env) for _ in range(repeat))
+
+
+def massprops_cmd(path):
+    return [sys.executable, "-m", "massprops", "props", "--format", "json", path]
+
+
+def trimesh_cmd(path):
+    return [sys.executable, "-c", TRIMESH_CMD, path]
+
+
+def _seconds(x):
+    return f"{x:.2f}" if x >= 0.1 else f"{x:.3f}"
+
+
+def end_to_end(quick):
+    path = icosphere_stl()
+    repeat = 2 if quick else 3
+    ours = best(massprops_cmd(path), repeat)
+    one = best(massprops_cmd(path), repeat, env={"MASSPROPS_THREADS": "1"})
+    theirs = best(trimesh_cmd(path), 1 if quick else 2)
+    size = os.path.getsize(path) / MIB
+    rows = ["| mesh | triangles | file MiB | massprops s | massprops peak MiB | 1 thread s | trimesh s "
+            "| trimesh peak MiB | speed-up | memory ratio |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+            f"| icosphere(8) at {OFFSET} | 1,310,720 | {size:.0f} | {_seconds(ours[0])} | {ours[1]:.0f} "
+            f"| {_seconds(one[0])} | {_seconds(theirs[0])} | {theirs[1]:.0f} | {theirs[0] / ours[0]:.1f}× "
+            f"| {ours[1] / theirs[1]:.0%} |"]
+    return "\n".join(rows)
+
+
+def _time(function, repeat):
+    times = []
+    for _ in range(repeat):
+        begin = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - begin)
+    return min(times)
+
+
+def kernel(quick):
+    """ns/triangle of the integration kernels on the icosphere, with the memory-read floor."""
+    import trimesh
+    from massprops import integrate
+    from massprops.io import read
+    mesh = read(icosphere_stl())
+    triangles = mesh.vertices[mesh.faces]
+    m = mesh.faces.shape[0]
+    repeat = 3 if quick else 7
+    floor = _time(lambda: triangles.sum(), repeat)
+    ours = {}
+    for threads in ("1", ""):
+        os.environ["MASSPROPS_THREADS"] = threads
+        ours[threads] = _time(lambda: integrate.integrate(mesh.vertices, mesh.faces), repeat)
+    os.environ.pop("MASSPROPS_THREADS")
+    theirs = _time(lambda: trimesh.triangles.mass_properties(triangles), max(1, repeat // 2))
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    ns = {k: v / m * 1e9 for k, v in ours.items()}
+    rows = ["| kernel (1,310,720 triangles) | ns/triangle | vs trimesh | × floor |", "|---|---:|---:|---:|",
+            f"| memory-read floor (one pass summing the float64 triangles) | {floor / m * 1e9:.1f} | | 1 |",
+            f"| massprops `integrate`, 1 thread | {ns['1']:.0f} | {theirs / ours['1']:.1f}× | {ours['1'] / floor:.0f} |",
+            f"| massprops `integrate`, {cores} threads | {ns['']:.0f} | {theirs / ours['']:.1f}× "
+            f"| {ours[''] / floor:.0f} |",
+            f"| trimesh `triangles.mass_properties` | {theirs / m * 1e9:.0f} | 1.0× | {theirs / floor:.0f} |"]
+    return "\n".join(rows) + f"\n\nThreads speed the kernel up {ours['1'] / ours['']:.2f}× on {cores} cores."
+
+
+STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import massprops.cli as c; "
+                 "r = CliRunner().invoke(c.main, ['props', sys.argv[1]]); "
+                 "print(sorted(m for m in ('trimesh', 'scipy', 'meshio', 'matplotlib', 'dask') if m in sys.modules))")
+
+
+def startup(quick):
+    path = box_stl()
+    repeat = 5 if quick else 15
+    ours = best([sys.executable, "-m", "massprops", "props", path], repeat)[0]
+    numpy_only = best([sys.executable, "-c", "import numpy"], repeat)[0]
+    bare = best([sys.executable, "-c", "pass"], repeat)[0]
+    heavy = subprocess.run([sys.executable, "-c", STARTUP_PROBE, path], capture_output=True, text=True).stdout.strip()
+    return "\n".join([
+        "| startup, 12-triangle box | wall s | vs `import numpy` |", "|---|---:|---:|",
+        f"| `python -c pass` | {bare:.3f} | |",
+        f"| `python -c \"import numpy\"` | {numpy_only:.3f} | 1.00× |",
+        f"| `massprops props box.stl` | {ours:.3f} | {ours / numpy_only:.2f}× |",
+        "", f"Heavy modules imported by `massprops props` on a binary STL: {heavy or '[]'}."])
+
+
+def scaling(quick):
+    sizes = [10_000, 100_000, 1_000_000] + ([] if quick else [10_000_000])
+    startup_s = best([sys.executable, "-m", "massprops", "props", box_stl()], 3)[0]
+    rows = ["| triangles | file MiB | massprops s | ns/triangle (minus startup) | peak MiB | peak / file |",
+            "|---:|---:|---:|---:|---:|---:|"]
+    for target in sizes:
+        path, m = torus_stl(target)
+        wall, peak = best(massprops_cmd(path), 1 if m > 2_000_000 else 3)
+        size = os.path.getsize(path) / MIB
+        rows.append(f"| {m:,} | {size:.1f} | {_seconds(wall)} | {(wall - startup_s) / m * 1e9:.0f} | {peak:.0f} "
+                    f"| {peak / size:.2f} |")
+    return "\n".join(rows)
+
+
+def machine():
+    import platform
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return (f"Machine: {cpu}, {cores} cores available, Python {platform.python_version()}, "
+            f"numpy {np.__version__}; load average {os.getloadavg()[0]:.1f} at the start (shared machine).")
+
+
+def run(quick: bool = False) -> str:
+    """All props tables as Markdown."""
+    parts = [machine(), "", "**End to end** (best of runs; fresh processes):", "", end_to_end(quick), "",
+             "**Kernel**:", "", kernel(quick), "", "**Startup**:", "", startup(quick), "",
+             "**Scaling** (tori, binary STL, end to end):", "", scaling(quick)]
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    print(run("--quick" in sys.argv))
