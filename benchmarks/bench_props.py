@@ -95,18 +95,29 @@ def box_stl():
     return path
 
 
+# Runs the command and reports its wall time and peak RSS.  A small launcher
+# process is needed: a child's ru_maxrss starts from the RSS of the process
+# that forked it, which here holds meshes.
+_LAUNCHER = """
+import os, subprocess, sys, time
+begin = time.perf_counter()
+child = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+_, status, usage = os.wait4(child.pid, 0)
+wall = time.perf_counter() - begin
+if os.waitstatus_to_exitcode(status):
+    sys.exit(child.stderr.read().decode()[-500:] or 'failed')
+print(wall, usage.ru_maxrss / 1024.0)
+"""
+
+
 def measure(argv, env=None):
     """Wall seconds and peak RSS (MiB) of one fresh process; raises if it fails."""
-    begin = time.perf_counter()
-    child = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                             env=dict(os.environ, **(env or {})))
-    _, status, usage = os.wait4(child.pid, 0)
-    wall = time.perf_counter() - begin
-    child.returncode = os.waitstatus_to_exitcode(status)
-    if child.returncode:
-        raise RuntimeError(f"{' '.join(argv)} failed: {child.stderr.read().decode()[-500:]}")
-    child.stderr.close()
-    return wall, usage.ru_maxrss / 1024.0
+    done = subprocess.run([sys.executable, "-c", _LAUNCHER, *argv], capture_output=True, text=True,
+                          env=dict(os.environ, **(env or {})))
+    if done.returncode:
+        raise RuntimeError(f"{' '.join(argv)} failed: {done.stderr.strip()[-500:]}")
+    wall, peak = done.stdout.split()
+    return float(wall), float(peak)
 
 
 def best(argv, repeat, env=None):
@@ -114,8 +125,11 @@ def best(argv, repeat, env=None):
     return min(measure(argv, env) for _ in range(repeat))
 
 
-def massprops_cmd(path):
-    return [sys.executable, "-m", "massprops", "props", "--format", "json", path]
+def massprops_cmd(path, *options):
+    """The installed ``massprops`` script (what users run), else ``python -m massprops``."""
+    import shutil
+    script = shutil.which("massprops")
+    return ([script] if script else [sys.executable, "-m", "massprops"]) + ["props", *options, path]
 
 
 def trimesh_cmd(path):
@@ -129,8 +143,8 @@ def _seconds(x):
 def end_to_end(quick):
     path = icosphere_stl()
     repeat = 2 if quick else 3
-    ours = best(massprops_cmd(path), repeat)
-    one = best(massprops_cmd(path), repeat, env={"MASSPROPS_THREADS": "1"})
+    ours = best(massprops_cmd(path, "--format", "json"), repeat)
+    one = best(massprops_cmd(path, "--format", "json"), repeat, env={"MASSPROPS_THREADS": "1"})
     theirs = best(trimesh_cmd(path), 1 if quick else 2)
     size = os.path.getsize(path) / MIB
     rows = ["| mesh | triangles | file MiB | massprops s | massprops peak MiB | 1 thread s | trimesh s "
@@ -185,7 +199,7 @@ STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import masspr
 def startup(quick):
     path = box_stl()
     repeat = 5 if quick else 15
-    ours = best([sys.executable, "-m", "massprops", "props", path], repeat)[0]
+    ours = best(massprops_cmd(path), repeat)[0]
     numpy_only = best([sys.executable, "-c", "import numpy"], repeat)[0]
     bare = best([sys.executable, "-c", "pass"], repeat)[0]
     heavy = subprocess.run([sys.executable, "-c", STARTUP_PROBE, path], capture_output=True, text=True).stdout.strip()
@@ -199,12 +213,12 @@ def startup(quick):
 
 def scaling(quick):
     sizes = [10_000, 100_000, 1_000_000] + ([] if quick else [10_000_000])
-    startup_s = best([sys.executable, "-m", "massprops", "props", box_stl()], 3)[0]
+    startup_s = best(massprops_cmd(box_stl()), 3)[0]
     rows = ["| triangles | file MiB | massprops s | ns/triangle (minus startup) | peak MiB | peak / file |",
             "|---:|---:|---:|---:|---:|---:|"]
     for target in sizes:
         path, m = torus_stl(target)
-        wall, peak = best(massprops_cmd(path), 1 if m > 2_000_000 else 3)
+        wall, peak = best(massprops_cmd(path, "--format", "json"), 1 if m > 2_000_000 else 3)
         size = os.path.getsize(path) / MIB
         rows.append(f"| {m:,} | {size:.1f} | {_seconds(wall)} | {(wall - startup_s) / m * 1e9:.0f} | {peak:.0f} "
                     f"| {peak / size:.2f} |")

@@ -27,7 +27,7 @@ import numpy as np
 __all__ = ["jacobi", "Polhode", "polhode", "torque_free", "period"]
 
 _GAUSS_NODES = 16
-_PANEL_WIDTH = 0.5      # in u; Jacobi functions are analytic in a strip of half-width K' ≥ π/2
+_PANEL_WIDTH = 0.25     # in u; sn, cn, dn are analytic in a strip of half-width K' ≥ π/2
 
 
 def jacobi(u, m, m1=None):
@@ -220,17 +220,17 @@ def _reference(h, k):
 
 
 def _attitude(motion, omega_p, times, quat0):
-    from .dynamics import quat_from_matrix, quat_multiply, axis_angle_quat, _conjugate
+    from .dynamics import quat_from_matrix, quat_multiply, axis_angle_quat, quat_conjugate
     moments = motion.moments
     if not np.any(motion.omega0):
         return np.broadcast_to(quat0, (len(times), 4)).copy()
-    k = int(np.argmin(moments * motion.amplitude))
+    k = int(np.argmin(moments * np.abs(motion.amplitude)))
     h = omega_p * moments
     h0 = motion.omega0 * moments
     ref0 = quat_from_matrix(_reference(h0[None], k))[0]
     refs = quat_from_matrix(_reference(h, k))
     spin = axis_angle_quat(np.broadcast_to([0.0, 0.0, 1.0], (len(times), 3)), _phi(motion, k, times))
-    fixed = quat_multiply(quat0, _conjugate(ref0))
+    fixed = quat_multiply(quat0, quat_conjugate(ref0))
     return quat_multiply(quat_multiply(np.broadcast_to(fixed, spin.shape), spin), refs)
 
 

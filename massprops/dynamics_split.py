@@ -121,15 +121,17 @@ def _free_step(plan):
 
 def _forced_step(weights, h, b, outer, inner, casimir, torque, world):
     """One step with a constant torque: T(τ/2) C(τ/2) X(τ/2) Y(τ) X(τ/2) C(τ/2) T(τ/2) per stage."""
+    tx, ty, tz = (float(v) for v in torque)
+
     def kick(state, tau):
-        m = np.array(state[:3])
-        q = np.array(state[3:])
-        if world:
-            from .dynamics import quat_to_matrix
-            m = m + tau * (quat_to_matrix(q).T @ torque)
+        m0, m1, m2, w, x, y, z = state
+        if world:                       # the world torque in body axes: Aᵀ T, with A from q
+            bx = (1 - 2 * (y * y + z * z)) * tx + 2 * (x * y + w * z) * ty + 2 * (x * z - w * y) * tz
+            by = 2 * (x * y - w * z) * tx + (1 - 2 * (x * x + z * z)) * ty + 2 * (y * z + w * x) * tz
+            bz = 2 * (x * z + w * y) * tx + 2 * (y * z - w * x) * ty + (1 - 2 * (x * x + y * y)) * tz
         else:
-            m = m + tau * torque
-        return tuple(m) + tuple(q)
+            bx, by, bz = tx, ty, tz
+        return m0 + tau * bx, m1 + tau * by, m2 + tau * bz, w, x, y, z
 
     def turn(state, tau):
         m0, m1, m2, w, x, y, z = state

@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["group_ids", "point_groups", "representatives", "table_rounds", "mix"]
+from .parallel import start as start_call, thread_count
+
+__all__ = ["group_ids", "point_representatives", "first_of_groups", "labels_of", "representatives",
+           "table_rounds", "mix"]
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _BLOCK = 1 << 16      # rows per first-pass block: its table (2 slots a row) stays in cache
@@ -55,44 +58,42 @@ def _hash_columns(columns, salt=0):
     return h
 
 
-def _key_columns(points):
-    """Bit-pattern columns of points (k, 3): float32 as uint32, anything else as float64 bits."""
+def _hash_points(points):
+    """64-bit hashes of points (k, 3) from their bit patterns (float32: x and y packed in one word)."""
     if points.dtype == np.float32:
         bits = points.view(np.uint32)
         xy = bits[:, 1].astype(np.uint64)
         xy <<= np.uint64(32)
         xy |= bits[:, 0]
-        return [xy, bits[:, 2]], [bits[:, 0], bits[:, 1], bits[:, 2]]
+        return _hash_columns([xy, bits[:, 2]])
     bits = points.view(np.uint64)
-    columns = [bits[:, k] for k in range(3)]
-    return columns, columns
+    return _hash_columns([bits[:, k] for k in range(3)])
 
 
-def point_groups(points):
-    """Group points (k, 3) by exact coordinates: (labels (k,), first (groups,)), as :func:`group_ids`.
+def point_representatives(points):
+    """For each point (k, 3), the first point with exactly the same coordinates.
 
     ``points`` must be C-contiguous float32 or float64 with ``-0.0`` already
-    made ``+0.0``.  float32 points (binary STL) are hashed on their own bit
-    patterns, x and y packed in one word.  Hashing runs block by block, in
-    cache.
+    made ``+0.0``.  Hashing and most comparisons run block by block, in cache.
+    Use :func:`first_of_groups` and :func:`labels_of` for dense labels.
     """
-    def hash_rows(start, stop):
-        return _hash_columns(_key_columns(points[start:stop])[0])
-
-    representative = representatives(points.shape[0], hash_rows)
-    if not _columns_match(_key_columns(points)[1], representative):
-        bits = points.view(np.uint32 if points.dtype == np.float32 else np.uint64).astype(np.uint64)
-        representative = _exact_representatives(bits)
-    return _dense_labels(representative)
+    bits = points.view(np.uint32 if points.dtype == np.float32 else np.uint64)
+    representative = representatives(points.shape[0], lambda start, stop: _hash_points(points[start:stop]),
+                                      bits)
+    if representative is None:
+        representative = _exact_representatives(bits.astype(np.uint64))
+    return representative
 
 
-def representatives(n, hash_rows):
-    """For each of ``n`` rows, a row with the same hash: the first such row when numpy writes in order.
+def representatives(n, hash_rows, keys=None):
+    """For each of ``n`` rows, the first row with the same key (when numpy writes in order).
 
     Two passes of :func:`table_rounds`: first within blocks of consecutive
     rows, whose tables fit in cache (equal keys of a mesh sit close in its
     face order), then over the first row of each block's groups.  The result
-    does not depend on the blocking.
+    does not depend on the blocking.  Rows are matched by hash; with
+    ``keys`` the keys themselves are then compared (in the block, and
+    between the blocks' first rows, which by transitivity covers every row).
 
     Parameters
     ----------
@@ -100,36 +101,65 @@ def representatives(n, hash_rows):
     hash_rows : callable
         ``hash_rows(start, stop)`` returns the uint64 hashes of rows
         ``start .. stop-1``, shape (stop - start,).
+    keys : ndarray, shape (n, w), optional
+        The keys.  Without them the hash must be a bijection of the key.
 
     Returns
     -------
-    ndarray, shape (n,), intp
+    ndarray, shape (n,), or None
+        None if two different keys share a hash (the caller then compares
+        full keys in every round).
     """
     if n == 0:
         return np.zeros(0, dtype=np.intp)
     index_type = np.int32 if n < 2 ** 31 - 1 else np.intp     # half the memory when it fits
     h = np.empty(n, dtype=np.uint64)
     local = np.empty(n, dtype=index_type)
-    table = np.empty(4 * _BLOCK, dtype=index_type)
-    leaders = []
-    for start in range(0, n, _BLOCK):
-        block = slice(start, min(n, start + _BLOCK))
-        h[block] = hash_rows(block.start, block.stop)
-        rows = np.arange(block.start, block.stop, dtype=index_type)
-        winner = _slot_winners(h[block], rows, 0, table)
-        resolved = h[winner] == h[block]
-        local[block] = np.where(resolved, winner, rows)
-        leaders.append(rows[local[block] == rows])
-    if len(leaders) == 1:
-        return table_rounds(h)
-    leaders = np.concatenate(leaders)
+    starts = range(0, n, _BLOCK)
+    # The blocks are independent: with several cores, a second thread takes
+    # every other block (numpy releases the GIL in each operation).
+    threaded = len(starts) >= 8 and thread_count() >= 2
+    other = start_call(_block_pass, starts[1::2], hash_rows, keys, h, local, threaded=threaded)
+    found = _block_pass(starts[::2] if threaded else starts, hash_rows, keys, h, local)
+    if threaded:
+        theirs = other()
+        found = None if found is None or theirs is None else {**found, **theirs}
+    if found is None:
+        return None
+    leaders = np.concatenate([found[begin] for begin in starts])
     leader_of = table_rounds(h[leaders], leaders)
+    if keys is not None and not all(
+            np.array_equal(np.take(keys, leader_of[begin:begin + _BLOCK], axis=0),
+                           np.take(keys, leaders[begin:begin + _BLOCK], axis=0))
+            for begin in range(0, leaders.size, _BLOCK)):
+        return None
     # Every local representative is a leader: look it up in a full-size array,
     # which reuses the hashes' memory (no longer needed).
-    representative = h.view(np.int64)
+    representative = h.view(index_type)[:n]
     representative[leaders] = leader_of
     del h, leaders, leader_of
     return representative[local]
+
+
+def _block_pass(starts, hash_rows, keys, h, local):
+    """Hash the blocks beginning at ``starts`` and resolve each within itself (see representatives).
+
+    Fills ``h`` and ``local`` for those rows; returns {block start: the rows
+    that are their own local representative}, or None on a hash collision.
+    """
+    table = np.empty(4 * _BLOCK, dtype=local.dtype)
+    found = {}
+    for begin in starts:
+        block = slice(begin, min(h.size, begin + _BLOCK))
+        h[block] = hash_rows(block.start, block.stop)
+        rows = np.arange(block.start, block.stop, dtype=local.dtype)
+        winner = _slot_winners(h[block], rows, 0, table)
+        np.copyto(winner, rows, where=h[winner] != h[block])
+        if keys is not None and not np.array_equal(np.take(keys, winner, axis=0), keys[block]):
+            return None
+        local[block] = winner
+        found[begin] = rows[winner == rows]
+    return found
 
 
 def table_rounds(h, rows=None):
@@ -141,10 +171,8 @@ def table_rounds(h, rows=None):
     hash won their slot) retry with a remixed slot.  Rows of equal hash always
     share a slot, so they resolve together, to one representative.
     """
-    index = np.arange(h.size, dtype=np.int32 if h.size < 2 ** 31 - 1 else np.intp)
-    representative = _slot_winners(h, index, 0)
-    del index
-    pending = np.flatnonzero(h[representative] != h)
+    representative = _slot_winners(h, None, 0)
+    pending = _unresolved(h, representative)
     salt = 1
     while pending.size:
         candidate = _slot_winners(h[pending], pending, salt)
@@ -156,23 +184,40 @@ def table_rounds(h, rows=None):
 
 
 def _slot_winners(h, rows, salt, table=None):
-    """Scatter ``rows`` into a table by hash (earliest row last written) and read each row's slot back."""
-    bits = max(4, int(2 * h.size - 1).bit_length())
+    """Scatter ``rows`` (None: 0..n-1) into a table by hash, earliest row last written; read each slot back.
+
+    Large inputs go block by block (last block first, so the earliest row
+    still wins), which keeps the temporaries small.
+    """
+    n = h.size
+    # Two slots a row; one for very large inputs, to bound the table's memory.
+    bits = max(4, int(2 * n - 1 if n <= 1 << 24 else n - 1).bit_length())
     if salt:
         h = mix(_salted(h, salt))
-    # The shifted hash is below 2**bits, so its bits read as a valid intp index.
-    slot = np.right_shift(h, np.uint64(64 - bits)).view(np.intp)
+    shift = np.uint64(64 - bits)
     if table is None or table.size < 1 << bits:
         # Row numbers below 2**31 fit in half the memory (and cache).
-        small = rows.size == 0 or rows[-1] < 2 ** 31 - 1
+        small = n == 0 or (n if rows is None else rows[-1]) < 2 ** 31 - 1
         table = np.empty(1 << bits, dtype=np.int32 if small else np.intp)
-    table[slot[::-1]] = rows[::-1]
-    return table[slot]
+    starts = range(0, n, _BLOCK)
+    for start in reversed(starts):
+        # The shifted hash is below 2**bits, so its bits read as a valid intp index.
+        slot = np.right_shift(h[start:start + _BLOCK], shift).view(np.intp)
+        block_rows = (np.arange(start, start + slot.size, dtype=table.dtype) if rows is None
+                      else rows[start:start + _BLOCK])
+        table[slot[::-1]] = block_rows[::-1]
+    winners = np.empty(n, dtype=table.dtype)
+    for start in starts:
+        slot = np.right_shift(h[start:start + _BLOCK], shift).view(np.intp)
+        np.take(table, slot, out=winners[start:start + slot.size])
+    return winners
 
 
-def _columns_match(columns, representative):
-    """Whether every row's key equals its representative's key, column by column."""
-    return all(np.array_equal(column[representative], column) for column in columns)
+def _unresolved(h, representative):
+    """Rows whose representative has a different hash, block by block."""
+    pending = [np.flatnonzero(h[representative[start:start + _BLOCK]] != h[start:start + _BLOCK]) + start
+               for start in range(0, h.size, _BLOCK)]
+    return np.concatenate(pending) if pending else np.zeros(0, dtype=np.intp)
 
 
 def _exact_representatives(keys):
@@ -191,8 +236,17 @@ def _exact_representatives(keys):
     return representative
 
 
-def _dense_labels(representative):
-    """Labels 0..k-1 in order of each group's first row, and those first rows."""
+def first_of_groups(representative):
+    """Flags of the rows that are their group's first row, and the representatives made those rows.
+
+    Returns
+    -------
+    is_first : ndarray, shape (n,), bool
+    representative : ndarray, shape (n,)
+        The input when every representative already is its group's first row
+        (what the hash tables give when numpy writes in order), else the
+        group minimum.
+    """
     n = representative.shape[0]
     is_first = np.empty(n, dtype=bool)
     earliest = True
@@ -201,14 +255,28 @@ def _dense_labels(representative):
         rows = np.arange(start, start + block.size, dtype=block.dtype)
         earliest &= bool(np.all(block <= rows))
         np.equal(block, rows, out=is_first[start:start + block.size])
-    if not earliest:
-        # Some representative is not its group's first row: take the minimum.
-        first_of_group = np.full(n, n, dtype=np.intp)
-        np.minimum.at(first_of_group, representative, np.arange(n, dtype=np.intp))
-        return _dense_labels(first_of_group[representative])
-    dense = np.cumsum(is_first, dtype=np.int64)
+    if earliest:
+        return is_first, representative
+    first_of_group = np.full(n, n, dtype=np.intp)
+    np.minimum.at(first_of_group, representative, np.arange(n, dtype=np.intp))
+    return first_of_groups(first_of_group[representative])
+
+
+def labels_of(is_first, representative):
+    """Dense int64 labels 0..k-1 in order of first rows, built block by block (small temporaries)."""
+    n = representative.shape[0]
+    dense = np.cumsum(is_first, dtype=np.int32 if n < 2 ** 31 - 1 else np.int64)
     dense -= 1
-    return dense[representative], np.flatnonzero(is_first)
+    labels = np.empty(n, dtype=np.int64)
+    for start in range(0, n, _BLOCK):
+        labels[start:start + _BLOCK] = dense[representative[start:start + _BLOCK]]
+    return labels
+
+
+def _dense_labels(representative):
+    """Labels 0..k-1 in order of each group's first row, and those first rows."""
+    is_first, representative = first_of_groups(representative)
+    return labels_of(is_first, representative), np.flatnonzero(is_first)
 
 
 def group_ids(keys):
@@ -231,7 +299,7 @@ def group_ids(keys):
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     columns = [keys[:, k] for k in range(keys.shape[1])]
     representative = representatives(keys.shape[0], lambda start, stop: _hash_columns(
-        [column[start:stop] for column in columns]))
-    if len(columns) > 1 and not _columns_match(columns, representative):
+        [column[start:stop] for column in columns]), keys if len(columns) > 1 else None)
+    if representative is None:
         representative = _exact_representatives(keys)
     return _dense_labels(representative)

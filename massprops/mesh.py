@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshGeometryError, OpenMeshError, WindingError
-from .grouping import group_ids, mix, point_groups, table_rounds
+from .grouping import first_of_groups, group_ids, labels_of, point_representatives, table_rounds
 from .parallel import PARALLEL_ABOVE, start
 
 __all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
@@ -54,8 +54,8 @@ class TriangleMesh:
         triangles = np.asarray(triangles)
         dtype = np.dtype(source_dtype or triangles.dtype)
         # One copy that also turns -0.0 into +0.0, so equal values have equal bits.
-        corners = np.add(triangles, 0.0, dtype=np.float32 if triangles.dtype == np.float32 else np.float64)
-        return cls.from_corners(corners.reshape(-1, 3), source_dtype=dtype)
+        return cls.from_corners(np.add(triangles, 0.0, dtype=np.float32 if triangles.dtype == np.float32
+                                       else np.float64).reshape(-1, 3), source_dtype=dtype)
 
     @classmethod
     def from_corners(cls, corners, *, source_dtype=None):
@@ -68,9 +68,11 @@ class TriangleMesh:
             (add ``0.0`` first); float32 values are welded on their own bits
             and widened to float64 exactly.
         """
-        labels, first = point_groups(corners)
-        return cls(corners[first].astype(np.float64), labels.reshape(-1, 3),
-                   np.dtype(source_dtype or corners.dtype))
+        dtype = np.dtype(source_dtype or corners.dtype)
+        is_first, representative = first_of_groups(point_representatives(corners))
+        vertices = corners[np.flatnonzero(is_first)].astype(np.float64)
+        del corners                   # the caller passed it to us: free it before the labels
+        return cls(vertices, labels_of(is_first, representative).reshape(-1, 3), dtype)
 
     @property
     def triangles(self):
@@ -103,31 +105,21 @@ class MeshChecks:
         return dict(self.__dict__)
 
 
-def _edge_hash(faces, n_vertices):
-    """A hash per directed edge that is a bijection of its undirected edge, and its direction.
+def _edge_hash(tail, head, vertex_bits):
+    """A hash of each directed edge tail → head that is a bijection of its undirected edge, and its direction.
 
     The lower vertex fills the top bits and an odd multiple of the higher one
-    the rest, so the hash table's slot (the top bits) is the lower vertex
+    the rest, so a hash table's slot (the top bits) is the lower vertex
     followed by a multiplicative hash of the higher: welded labels follow the
     face order, so consecutive edges land in nearby slots (cache-friendly),
-    and distinct edges of one vertex spread over its slots.
+    and distinct edges of one vertex spread over its slots.  The direction is
+    +1 from the lower vertex to the higher, -1 back, 0 for a collapsed edge.
     """
-    m = faces.shape[0]
-    low, high = np.empty((m, 3), dtype=np.int64), np.empty((m, 3), dtype=np.int64)
-    direction = np.empty((m, 3), dtype=np.int8)
-    for k in range(3):
-        tail, head = faces[:, k], faces[:, (k + 1) % 3]
-        np.minimum(tail, head, out=low[:, k])
-        np.maximum(tail, head, out=high[:, k])
-        direction[:, k] = head > tail
-        direction[:, k] -= head < tail
-    low, high, direction = low.ravel(), high.ravel(), direction.ravel()
-    vertex_bits = max(1, int(n_vertices - 1).bit_length())
     if vertex_bits > 32:
-        # The multiplicative half would no longer be a bijection: mix the plain key.
-        low *= n_vertices
-        low += high
-        return mix(low.view(np.uint64)), direction
+        raise MeshGeometryError("more than 2**32 vertices: too many for the edge check",
+                                fix="split the mesh into parts")
+    direction = np.subtract(head > tail, head < tail, dtype=np.int8)
+    low, high = np.minimum(tail, head), np.maximum(tail, head)
     shift = np.uint64(64 - vertex_bits)
     low, high = low.view(np.uint64), high.view(np.uint64)
     high *= np.uint64(0x9E3779B97F4A7C15)                # odd: a bijection mod 2**k
@@ -137,20 +129,79 @@ def _edge_hash(faces, n_vertices):
     return low, direction
 
 
+def _edges_of(faces, rows):
+    """Tail and head vertices of directed edges ``rows``: edge 3f + k runs from corner k to corner k+1 of face f."""
+    flat = faces.ravel()
+    following = rows + 1
+    following[rows % 3 == 2] -= 3
+    return flat[rows], flat[following]
+
+
+_FACE_BLOCK = 1 << 15
+# Above this many faces the shells are found after the edges, not beside them, to bound the peak memory.
+_THREADED_CHECK_UP_TO = 1 << 22
+
+
+def _edge_representatives(faces, n_vertices):
+    """For each directed edge, an edge of the same undirected edge (the first, as numpy writes in order).
+
+    One hash-table round over all 3m edges, block by block, recomputing the
+    edge hashes instead of storing them (memory stays near the table's);
+    edges whose slot another edge won go through :func:`table_rounds`.
+
+    Returns
+    -------
+    representative : ndarray, shape (3m,)
+    direction : ndarray, shape (3m,), int8
+    """
+    faces = np.ascontiguousarray(faces)
+    m = faces.shape[0]
+    vertex_bits = max(1, int(n_vertices - 1).bit_length())
+    bits = max(4, int(6 * m - 1).bit_length())             # two slots an edge
+    table = np.empty(1 << bits, dtype=np.int32 if 3 * m < 2 ** 31 - 1 else np.intp)
+    shift = np.uint64(64 - bits)
+
+    def block_hashes(begin):
+        block = faces[begin:begin + _FACE_BLOCK]
+        h, direction = _edge_hash(block, np.roll(block, -1, axis=1), vertex_bits)
+        return h.ravel(), direction.ravel(), np.right_shift(h.ravel(), shift).view(np.intp)
+
+    starts = range(0, m, _FACE_BLOCK)
+    for begin in reversed(starts):                         # so that in each slot the earliest edge wins
+        _, _, slot = block_hashes(begin)
+        table[slot[::-1]] = np.arange(3 * begin, 3 * begin + slot.size, dtype=table.dtype)[::-1]
+    representative = np.empty(3 * m, dtype=table.dtype)
+    direction = np.empty(3 * m, dtype=np.int8)
+    pending = []
+    for begin in starts:
+        h, block_direction, slot = block_hashes(begin)
+        rows = slice(3 * begin, 3 * begin + h.size)
+        winner = np.take(table, slot, out=representative[rows])
+        direction[rows] = block_direction
+        pending.append(np.flatnonzero(_edge_hash(*_edges_of(faces, winner), vertex_bits)[0] != h) + 3 * begin)
+    del table
+    pending = np.concatenate(pending) if pending else np.zeros(0, dtype=np.intp)
+    if pending.size:
+        # Every edge of a pending edge's group is pending too (they share its slot).
+        representative[pending] = table_rounds(_edge_hash(*_edges_of(faces, pending), vertex_bits)[0], pending)
+    return representative, direction
+
+
 def _edge_balance(faces, n_vertices):
-    """Per undirected edge: how often it is used, and forward minus backward uses.
+    """Per undirected edge: how often it is used, and forward minus backward uses (int32).
 
     Both are indexed by one representative directed edge of each undirected
     edge (zero at the other indices), which is all the checks need.
     """
-    h, direction = _edge_hash(faces, n_vertices)
-    # The slots already follow the face order, so one pass over one table is
-    # as cache-friendly as the blocked passes and does half the work.
-    representative = table_rounds(h)
-    del h
-    # Small integers, exact in float64 (bincount's weights are float64).
-    balance = np.bincount(representative, weights=direction, minlength=direction.size)
-    uses = np.bincount(representative, minlength=direction.size)
+    representative, direction = _edge_representatives(faces, n_vertices)
+    n = direction.size
+    balance, uses = np.zeros(n, dtype=np.int32), np.zeros(n, dtype=np.int32)
+    ones = np.ones(min(n, _FACE_BLOCK), dtype=np.int32)
+    for begin in range(0, n, _FACE_BLOCK):
+        # ufunc.at is fast when index, target and values share a dtype; blocks keep the copies small.
+        rows = representative[begin:begin + _FACE_BLOCK].astype(np.intp, copy=False)
+        np.add.at(balance, rows, direction[begin:begin + _FACE_BLOCK].astype(np.int32))
+        np.add.at(uses, rows, ones[:rows.size])
     return uses, balance
 
 
@@ -164,20 +215,29 @@ def face_components(faces, n_vertices):
     every vertex points at its root.  A few rounds suffice for meshes, with no
     Python loop over elements.
     """
-    parent = np.arange(n_vertices, dtype=np.intp)
+    # One spare slot at the end absorbs the writes of faces that hook nothing,
+    # so every block is one unmasked scatter.
+    index_type = np.int32 if n_vertices < 2 ** 31 - 2 else np.intp
+    parent = np.arange(n_vertices + 1, dtype=index_type)
+    grand = np.empty_like(parent)
     while True:
-        roots = parent[faces]
-        smallest = np.minimum(np.minimum(roots[:, 0], roots[:, 1]), roots[:, 2])[:, None]
-        hook = roots > smallest
-        if not hook.any():
+        hooked = False
+        for begin in range(0, faces.shape[0], _FACE_BLOCK):
+            roots = parent[faces[begin:begin + _FACE_BLOCK]]
+            smallest = np.minimum(np.minimum(roots[:, 0], roots[:, 1]), roots[:, 2])[:, None]
+            hook = roots > smallest
+            if hook.any():
+                parent[np.where(hook, roots, n_vertices)] = smallest
+                hooked = True
+        if not hooked:
             break
-        parent[roots[hook]] = np.broadcast_to(smallest, roots.shape)[hook]
+        parent[n_vertices] = n_vertices
         while True:
-            grand = parent[parent]
+            np.take(parent, parent, out=grand)
+            np.take(grand, grand, out=parent)
             if np.array_equal(grand, parent):
                 break
-            parent = grand
-    face_root = roots[:, 0]
+    face_root = parent[faces[:, 0]]
     is_root = np.zeros(n_vertices, dtype=bool)
     is_root[face_root] = True
     count = int(np.count_nonzero(is_root))
@@ -245,7 +305,8 @@ def check_mesh(mesh, path=None):
     degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
                                       | (faces[:, 2] == faces[:, 0])))
     # Shells are found in a second thread while the edges are matched.
-    components = start(face_components, faces, vertices.shape[0], threaded=False)
+    components = start(face_components, faces, vertices.shape[0],
+                       threaded=PARALLEL_ABOVE < faces.shape[0] <= _THREADED_CHECK_UP_TO)
     uses, balance = _edge_balance(faces, vertices.shape[0])
     labels, n_shells = components()
     if np.any(balance):

@@ -103,7 +103,7 @@ def resolution_warning(props, mesh):
     from .properties import unit_factor
 
     step = 2.0 * props.error.input_resolution.get("coordinates", 0.0)
-    extent = float(np.ptp(mesh.vertices, axis=0).max()) * float(unit_factor(props.unit))
+    extent = float(np.ptp(np.ascontiguousarray(mesh.vertices.T), axis=1).max()) * float(unit_factor(props.unit))
     if not step or not extent or step / extent <= WARN_RELATIVE_STEP:
         return None
     dtype = np.dtype(mesh.source_dtype).name

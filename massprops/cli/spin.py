@@ -7,6 +7,7 @@ import contextlib
 import click
 import numpy as np
 
+from ..dynamics import DEFAULT_METHOD, METHODS, SPLITTING
 from . import options
 
 CSV_HEADER = "t,wx,wy,wz,qw,qx,qy,qz,Hx,Hy,Hz,K"
@@ -128,18 +129,20 @@ def work_precision_table(rows):
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--omega", type=float, nargs=3, required=True, metavar="WX WY WZ",
               help="Initial angular velocity ω' in local (body) axes [rad/s].")
-@click.option("--duration", type=float, required=True, metavar="T", help="Simulated time [s].")
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), required=True, metavar="T",
+              help="Simulated time [s].")
 @click.option("--torque", type=float, nargs=3, default=None, metavar="TX TY TZ",
               help="Constant torque [mass·length²/s²]; torque-free without it.")
 @click.option("--torque-frame", type=click.Choice(["body", "world"]), default="body", show_default=True,
               help="Axes the torque is fixed in.")
-@click.option("--method", type=click.Choice(["split2", "split4", "split6", "RK45", "DOP853", "Radau", "BDF",
-                                             "LSODA"]),
-              default="split6", show_default=True,
+@click.option("--method", type=click.Choice(list(METHODS)), default=DEFAULT_METHOD, show_default=True,
               help="split2/4/6: geometric splitting (exact rotations, |H| kept to rounding); others: scipy.")
-@click.option("--rtol", type=float, default=None, help="Target relative error (default 1e-9).")
-@click.option("--steps", type=int, default=None, help="Fixed step count (splitting methods; instead of --rtol).")
-@click.option("--samples", type=int, default=1001, show_default=True, help="Rows of the time series.")
+@click.option("--rtol", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Target relative error (default 1e-9).")
+@click.option("--steps", type=click.IntRange(min=1), default=None,
+              help="Fixed step count (splitting methods; instead of --rtol).")
+@click.option("--samples", type=click.IntRange(min=2), default=1001, show_default=True,
+              help="Rows of the time series.")
 @click.option("--out", "out_csv", type=click.Path(dir_okay=False), help="Write the time series as CSV.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a PNG (the time series, or the work–precision plot with --compare-methods).")
@@ -163,7 +166,7 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
 
     if rtol is not None and steps is not None:
         raise click.UsageError("give --rtol or --steps, not both")
-    if steps is not None and method not in dynamics.SPLITTING:
+    if steps is not None and method not in SPLITTING:
         raise click.BadParameter(f"--steps applies to split2/split4/split6, not {method}; give --rtol",
                                  param_hint="--steps")
     if compare_methods and torque is not None:

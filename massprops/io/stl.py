@@ -46,15 +46,22 @@ def read(path):
 def _read_binary(path, count):
     if count == 0:
         raise MeshFormatError("the STL holds no triangles", path=path, fix="export the part as a closed surface")
-    # Block by block, so only the corners (36 of every 50 bytes) are held;
-    # adding 0.0 on the way turns -0.0 into +0.0, as welding needs.
+    # Passed as a temporary, so from_corners holds the only reference and can free it.
+    return TriangleMesh.from_corners(_binary_corners(path, count), source_dtype=np.float32)
+
+
+def _binary_corners(path, count):
+    """The corners (3·count, 3) float32 of a binary STL, with -0.0 made +0.0 (as welding needs).
+
+    Read block by block, so only the corners (36 of every 50 bytes) are held.
+    """
     corners = np.empty((count, 3, 3), dtype=np.float32)
     with open(path, "rb") as f:
         f.seek(_HEADER)
         for start in range(0, count, _READ_BLOCK):
             records = np.fromfile(f, dtype=_RECORD, count=min(_READ_BLOCK, count - start))
             np.add(records["corners"], np.float32(0.0), out=corners[start:start + records.shape[0]])
-    return TriangleMesh.from_corners(corners.reshape(-1, 3), source_dtype=np.float32)
+    return corners.reshape(-1, 3)
 
 
 def _read_ascii(path):
