@@ -113,52 +113,53 @@ def representatives(n, hash_rows, keys=None):
     if n == 0:
         return np.zeros(0, dtype=np.intp)
     index_type = np.int32 if n < 2 ** 31 - 1 else np.intp     # half the memory when it fits
-    h = np.empty(n, dtype=np.uint64)
     local = np.empty(n, dtype=index_type)
     starts = range(0, n, _BLOCK)
     # The blocks are independent: with several cores, a second thread takes
     # every other block (numpy releases the GIL in each operation).
     threaded = len(starts) >= 8 and thread_count() >= 2
-    other = start_call(_block_pass, starts[1::2], hash_rows, keys, h, local, threaded=threaded)
-    found = _block_pass(starts[::2] if threaded else starts, hash_rows, keys, h, local)
+    other = start_call(_block_pass, starts[1::2], hash_rows, keys, local, threaded=threaded)
+    found = _block_pass(starts[::2] if threaded else starts, hash_rows, keys, local)
     if threaded:
         theirs = other()
         found = None if found is None or theirs is None else {**found, **theirs}
     if found is None:
         return None
-    leaders = np.concatenate([found[begin] for begin in starts])
-    leader_of = table_rounds(h[leaders], leaders)
+    leaders = np.concatenate([found[begin][0] for begin in starts])
+    leader_of = table_rounds(np.concatenate([found[begin][1] for begin in starts]), leaders)
+    del found
     if keys is not None and not all(
             np.array_equal(np.take(keys, leader_of[begin:begin + _BLOCK], axis=0),
                            np.take(keys, leaders[begin:begin + _BLOCK], axis=0))
             for begin in range(0, leaders.size, _BLOCK)):
         return None
-    # Every local representative is a leader: look it up in a full-size array,
-    # which reuses the hashes' memory (no longer needed).
-    representative = h.view(index_type)[:n]
+    # Every local representative is a leader: look it up in a full-size array.
+    representative = np.empty(n, dtype=index_type)
     representative[leaders] = leader_of
-    del h, leaders, leader_of
+    del leaders, leader_of
     return representative[local]
 
 
-def _block_pass(starts, hash_rows, keys, h, local):
+def _block_pass(starts, hash_rows, keys, local):
     """Hash the blocks beginning at ``starts`` and resolve each within itself (see representatives).
 
-    Fills ``h`` and ``local`` for those rows; returns {block start: the rows
-    that are their own local representative}, or None on a hash collision.
+    Fills ``local`` for those rows; returns {block start: (the rows that are
+    their own local representative, their hashes)}, or None on a hash collision.
     """
     table = np.empty(4 * _BLOCK, dtype=local.dtype)
     found = {}
     for begin in starts:
-        block = slice(begin, min(h.size, begin + _BLOCK))
-        h[block] = hash_rows(block.start, block.stop)
+        block = slice(begin, min(local.size, begin + _BLOCK))
+        h = hash_rows(block.start, block.stop)
         rows = np.arange(block.start, block.stop, dtype=local.dtype)
-        winner = _slot_winners(h[block], rows, 0, table)
-        np.copyto(winner, rows, where=h[winner] != h[block])
+        winner = _slot_winners(h, rows, 0, table)
+        offset = winner - begin
+        np.copyto(winner, rows, where=h[offset] != h)
         if keys is not None and not np.array_equal(np.take(keys, winner, axis=0), keys[block]):
             return None
         local[block] = winner
-        found[begin] = rows[winner == rows]
+        leader = np.flatnonzero(winner == rows)
+        found[begin] = (rows[leader], h[leader])
     return found
 
 

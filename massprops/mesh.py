@@ -145,9 +145,10 @@ _THREADED_CHECK_UP_TO = 1 << 22
 def _edge_representatives(faces, n_vertices):
     """For each directed edge, an edge of the same undirected edge (the first, as numpy writes in order).
 
-    One hash-table round over all 3m edges, block by block, recomputing the
-    edge hashes instead of storing them (memory stays near the table's);
-    edges whose slot another edge won go through :func:`table_rounds`.
+    One hash-table round over all 3m edges, block by block (for very large
+    meshes recomputing the edge hashes instead of storing them, so memory
+    stays near the table's); edges whose slot another edge won go through
+    :func:`table_rounds`.
 
     Returns
     -------
@@ -161,10 +162,18 @@ def _edge_representatives(faces, n_vertices):
     table = np.empty(1 << bits, dtype=np.int32 if 3 * m < 2 ** 31 - 1 else np.intp)
     shift = np.uint64(64 - bits)
 
+    # Up to 2**24 edges (128 MiB) the hashes are kept for the second pass; above, recomputed.
+    kept = {}
+
     def block_hashes(begin):
+        if begin in kept:
+            return kept.pop(begin)
         block = faces[begin:begin + _FACE_BLOCK]
         h, direction = _edge_hash(block, np.roll(block, -1, axis=1), vertex_bits)
-        return h.ravel(), direction.ravel(), np.right_shift(h.ravel(), shift).view(np.intp)
+        found = h.ravel(), direction.ravel(), np.right_shift(h.ravel(), shift).view(np.intp)
+        if 3 * m <= 1 << 24:
+            kept[begin] = found
+        return found
 
     starts = range(0, m, _FACE_BLOCK)
     for begin in reversed(starts):                         # so that in each slot the earliest edge wins
@@ -178,7 +187,14 @@ def _edge_representatives(faces, n_vertices):
         rows = slice(3 * begin, 3 * begin + h.size)
         winner = np.take(table, slot, out=representative[rows])
         direction[rows] = block_direction
-        pending.append(np.flatnonzero(_edge_hash(*_edges_of(faces, winner), vertex_bits)[0] != h) + 3 * begin)
+        # Most winners lie in this block, whose hashes are at hand; the others are recomputed.
+        offset = winner - 3 * begin
+        far = np.flatnonzero((offset < 0) | (offset >= h.size))
+        np.clip(offset, 0, h.size - 1, out=offset)
+        same = h[offset] == h
+        if far.size:
+            same[far] = _edge_hash(*_edges_of(faces, winner[far]), vertex_bits)[0] == h[far]
+        pending.append(np.flatnonzero(~same) + 3 * begin)
     del table
     pending = np.concatenate(pending) if pending else np.zeros(0, dtype=np.intp)
     if pending.size:
@@ -193,16 +209,24 @@ def _edge_balance(faces, n_vertices):
     Both are indexed by one representative directed edge of each undirected
     edge (zero at the other indices), which is all the checks need.
     """
+    representative, _, balance = _balance(faces, n_vertices)
+    return _uses(representative), balance
+
+
+def _balance(faces, n_vertices):
+    """Edge representatives and directions, and the balance per representative (see _edge_balance)."""
     representative, direction = _edge_representatives(faces, n_vertices)
-    n = direction.size
-    balance, uses = np.zeros(n, dtype=np.int32), np.zeros(n, dtype=np.int32)
-    ones = np.ones(min(n, _FACE_BLOCK), dtype=np.int32)
-    for begin in range(0, n, _FACE_BLOCK):
+    balance = np.zeros(direction.size, dtype=np.int32)
+    for begin in range(0, direction.size, _FACE_BLOCK):
         # ufunc.at is fast when index, target and values share a dtype; blocks keep the copies small.
-        rows = representative[begin:begin + _FACE_BLOCK].astype(np.intp, copy=False)
-        np.add.at(balance, rows, direction[begin:begin + _FACE_BLOCK].astype(np.int32))
-        np.add.at(uses, rows, ones[:rows.size])
-    return uses, balance
+        np.add.at(balance, representative[begin:begin + _FACE_BLOCK].astype(np.intp, copy=False),
+                  direction[begin:begin + _FACE_BLOCK].astype(np.int32))
+    return representative, direction, balance
+
+
+def _uses(representative):
+    """How many directed edges each representative stands for (int32, zero elsewhere)."""
+    return np.bincount(representative, minlength=representative.size).astype(np.int32)
 
 
 def face_components(faces, n_vertices):
@@ -294,23 +318,17 @@ def check_mesh(mesh, path=None):
     if faces.min() < 0 or faces.max() >= vertices.shape[0]:
         raise MeshGeometryError("a face refers to a vertex that does not exist", path=path,
                                 fix="re-export the mesh")
-    used = np.zeros(vertices.shape[0], dtype=bool)
-    used[faces.ravel()] = True
-    bad = used & ~np.isfinite(vertices).all(axis=1)
-    if bad.any():
-        raise MeshGeometryError(
-            f"{int(bad.sum())} vertices have NaN or infinite coordinates "
-            f"(first: vertex {int(np.flatnonzero(bad)[0])})", path=path,
-            fix="re-export the mesh; non-finite coordinates cannot be repaired")
+    if not np.isfinite(vertices).all():
+        _refuse_non_finite(vertices, faces, path)
     degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
                                       | (faces[:, 2] == faces[:, 0])))
     # Shells are found in a second thread while the edges are matched.
     components = start(face_components, faces, vertices.shape[0],
                        threaded=PARALLEL_ABOVE < faces.shape[0] <= _THREADED_CHECK_UP_TO)
-    uses, balance = _edge_balance(faces, vertices.shape[0])
+    representative, direction, balance = _balance(faces, vertices.shape[0])
     labels, n_shells = components()
     if np.any(balance):
-        _refuse_unbalanced(faces, uses, balance, path)
+        _refuse_unbalanced(faces, _uses(representative), balance, path)
     outside = 0
     if n_shells > 1:
         outside = _inward_shells_outside(vertices, faces, labels, n_shells)
@@ -321,6 +339,18 @@ def check_mesh(mesh, path=None):
                 fix="pass --repair to orient every shell outward")
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
                       duplicate_faces=0, degenerate_faces=degenerate)
+
+
+def _refuse_non_finite(vertices, faces, path):
+    """Raise for non-finite coordinates of vertices that faces use (unused ones do not matter)."""
+    used = np.zeros(vertices.shape[0], dtype=bool)
+    used[faces.ravel()] = True
+    bad = used & ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        raise MeshGeometryError(
+            f"{int(bad.sum())} vertices have NaN or infinite coordinates "
+            f"(first: vertex {int(np.flatnonzero(bad)[0])})", path=path,
+            fix="re-export the mesh; non-finite coordinates cannot be repaired")
 
 
 def _duplicate_faces(faces):

@@ -103,19 +103,24 @@ def test_splitting_converges_to_closed_form(moments, omega, seed):
     assert max(dynamics.trajectory_error(run, exact)) < 1e-8
 
 
-def test_intermediate_axis_flip_period():
+@pytest.mark.parametrize("omega", [(1e-3, 1.0, 1e-3),       # H² > 2K I2: about the major axis
+                                   (3e-3, 1.0, 1e-3)])      # H² < 2K I2: about the minor axis
+def test_intermediate_axis_flip_period(omega):
     moments = (1.0, 2.0, 3.0)
-    eps = 1e-3
-    omega = np.array([eps, 1.0, eps])
+    omega = np.array(omega)
     i1, i2, i3 = (Fraction(m) for m in moments)
     w = [Fraction(x) for x in omega]
     two_k = i1 * w[0] ** 2 + i2 * w[1] ** 2 + i3 * w[2] ** 2
     h2 = (i1 * w[0]) ** 2 + (i2 * w[1]) ** 2 + (i3 * w[2]) ** 2
-    m1 = float((i3 - i1) * (h2 - two_k * i2) / ((i3 - i2) * (h2 - two_k * i1)))
+    if h2 > two_k * i2:
+        m1 = float((i3 - i1) * (h2 - two_k * i2) / ((i3 - i2) * (h2 - two_k * i1)))
+    else:
+        m1 = float((i3 - i1) * (two_k * i2 - h2) / ((i2 - i1) * (two_k * i3 - h2)))
     sigma = math.sqrt(float((i2 - i1) * (i3 - i2) / (i1 * i3)))
     expected = 2.0 / sigma * math.log(16.0 / m1)
     assert period(moments, omega) == pytest.approx(expected, rel=1e-5)
     # The integrator flips: ω₂ changes sign, and each return takes the period.
+    # (σ assumes ω₂ = 1: the flip's growth rate is σ ω₂.)
     run = dynamics.simulate(np.diag(moments), omega, 2.6 * expected, method="split6", steps=40000,
                             samples=20001)
     w2 = run.omega[:, 1]
@@ -218,3 +223,26 @@ def test_simulate_refuses_bad_duration_and_inertia():
         dynamics.simulate(np.eye(3), [1, 0, 0], -1.0)
     with pytest.raises(OptionError, match="positive definite"):
         dynamics.simulate(np.diag([-1.0, 1.0, 1.0]), [1, 0, 0], 1.0)
+
+
+@pytest.mark.parametrize("method, order", [("split2", 2), ("split4", 4), ("split6", 6)])
+def test_splitting_order(method, order):
+    inertia, _ = rotated((1.0, 2.0, 3.0), 9)
+    omega = [0.8, -0.5, 0.4]
+    exact = torque_free(inertia, omega, np.linspace(0.0, 8.0, 5))
+    errors = []
+    for steps in (40, 80):
+        run = dynamics.simulate(inertia, omega, 8.0, method=method, steps=steps, samples=5)
+        errors.append(dynamics.trajectory_error(run, exact)[0])
+    assert math.log2(errors[0] / errors[1]) == pytest.approx(order, abs=0.4)
+
+
+def test_needle_closed_form_matches_splitting():
+    # Nearly axisymmetric and spinning fast about the minor axis: m is tiny.
+    moments, omega = (1e-3, 1.0, 1.0005), (200.0, 1.0, 0.3)
+    inertia, v = rotated(moments, 21)
+    duration = 50 * period(moments, omega)
+    run = dynamics.simulate(inertia, v @ omega, duration, method="split6", steps=2000, samples=101)
+    exact = torque_free(inertia, v @ omega, run.t)
+    omega_error, attitude_error = dynamics.trajectory_error(run, exact)
+    assert omega_error < 1e-11 and attitude_error < 1e-9

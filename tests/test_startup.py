@@ -145,9 +145,7 @@ def test_integration_does_not_depend_on_threads(monkeypatch):
 
 
 def test_kernel_second_moment_within_its_bound_of_exact():
-    mesh = TriangleMesh(solids.tetrahedron([(0.1, 0.2, 0.3), (1.7, 0.1, 0.2), (0.4, 1.3, 0.1),
-                                            (0.3, 0.5, 2.1)]).vertices, solids.tetrahedron(
-        [(0.1, 0.2, 0.3), (1.7, 0.1, 0.2), (0.4, 1.3, 0.1), (0.3, 0.5, 2.1)]).faces)
+    mesh = solids.tetrahedron([(0.1, 0.2, 0.3), (1.7, 0.1, 0.2), (0.4, 1.3, 0.1), (0.3, 0.5, 2.1)])
     moments = integrate.integrate(mesh.vertices, mesh.faces)
     scale = Fraction(2) ** -moments.scale_exp
     points = [[(Fraction(float(x)) - Fraction(float(r))) * scale for x, r in zip(p, moments.reference)]

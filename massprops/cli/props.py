@@ -30,10 +30,10 @@ def _parse_only(text):
 
 
 def _density_map(ctx, param, text):
+    if text is None:
+        return None                 # before the import: plain `props` stays light at start-up
     from ..errors import OptionError
     from ..volume import parse_density_map
-    if text is None:
-        return None
     try:
         return parse_density_map(text)
     except OptionError as exc:

@@ -56,10 +56,13 @@ def _binary_corners(path, count):
     Read block by block, so only the corners (36 of every 50 bytes) are held.
     """
     corners = np.empty((count, 3, 3), dtype=np.float32)
+    buffer = np.empty(min(count, _READ_BLOCK), dtype=_RECORD)       # reused: no fresh pages per block
     with open(path, "rb") as f:
         f.seek(_HEADER)
         for start in range(0, count, _READ_BLOCK):
-            records = np.fromfile(f, dtype=_RECORD, count=min(_READ_BLOCK, count - start))
+            records = buffer[:min(_READ_BLOCK, count - start)]
+            if f.readinto(records) != records.nbytes:
+                raise MeshFormatError("the file ended early", path=path, fix="re-export the mesh")
             np.add(records["corners"], np.float32(0.0), out=corners[start:start + records.shape[0]])
     return corners.reshape(-1, 3)
 
