@@ -361,11 +361,10 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="
         # the weight det 1 (γ(9)); then the pairwise sum over the chunk.
         second_error = 12 * radius ** 2 * ((_gamma(9) + gamma * (1 + _gamma(9))) * abs_sum
                                            + (1 + _gamma(9)) * bound_sum)
-    if weights is None and measure == "volume" and abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
-        # The tetrahedra cancel heavily: redo the sums in double-double (unweighted
-        # volume sums only; weighted sums keep their, larger, rigorous bounds).
+    if measure == "volume" and abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
+        # The tetrahedra cancel heavily: redo the sums (weighted or not) in double-double.
         from .integrate_dd import integrate_double_double
-        dd = integrate_double_double(scaled, faces, order)
+        dd = integrate_double_double(scaled, faces, order, weights=weights)
         det_sum, det_error = dd["det_sum"], dd["det_error"]
         first, first_error = dd.get("first", first), dd.get("first_error", first_error)
         second, second_error = dd.get("second", second), dd.get("second_error", second_error)

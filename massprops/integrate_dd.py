@@ -73,9 +73,12 @@ def _det_dd(a, b, c):
 _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
-def _chunk_terms(a, b, c, order):
+def _chunk_terms(a, b, c, order, weights=None):
     """Double-double terms of one chunk: lists of (hi, lo) arrays per sum."""
     det, permanent = _det_dd(a, b, c)
+    if weights is not None:
+        det = dd_mul(det, (weights, np.zeros_like(weights)))
+        permanent = permanent * np.abs(weights)
     terms = {"det": [det], "first": [], "second": []}
     if order >= 1:
         s = [dd_add(two_sum(a[:, i], b[:, i]), (c[:, i], 0.0)) for i in range(3)]
@@ -93,7 +96,7 @@ def _fsum_dd(parts):
     return math.fsum(itertools.chain.from_iterable(np.concatenate(p) for p in parts))
 
 
-def integrate_double_double(scaled, faces, order, chunk=1 << 14):
+def integrate_double_double(scaled, faces, order, chunk=1 << 14, weights=None):
     """Σ det, Σ det·s, Σ det·Q over all faces, each correctly rounded from double-double terms.
 
     Parameters
@@ -101,6 +104,8 @@ def integrate_double_double(scaled, faces, order, chunk=1 << 14):
     scaled : ndarray, shape (n, 3)
         Shifted, scaled coordinates (exact images of the input).
     faces : ndarray, shape (m, 3)
+    weights : ndarray, shape (m,), optional
+        Exact per-face factors (a cell's density) multiplying every term.
 
     Returns
     -------
@@ -110,7 +115,8 @@ def integrate_double_double(scaled, faces, order, chunk=1 << 14):
     abs_sum = permanent_sum = 0.0
     for start in range(0, faces.shape[0], chunk):
         corner = scaled[faces[start:start + chunk]]
-        terms, abs_det, permanent = _chunk_terms(corner[:, 0], corner[:, 1], corner[:, 2], order)
+        terms, abs_det, permanent = _chunk_terms(corner[:, 0], corner[:, 1], corner[:, 2], order,
+                                                 None if weights is None else weights[start:start + chunk])
         det_parts.append(terms["det"][0])
         for k, t in enumerate(terms["first"]):
             first_parts[k].append(t)
