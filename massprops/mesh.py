@@ -167,13 +167,13 @@ def _edge_representatives(faces, n_vertices):
 
     def block_hashes(begin):
         if begin in kept:
-            return kept.pop(begin)
-        block = faces[begin:begin + _FACE_BLOCK]
-        h, direction = _edge_hash(block, np.roll(block, -1, axis=1), vertex_bits)
-        found = h.ravel(), direction.ravel(), np.right_shift(h.ravel(), shift).view(np.intp)
-        if 3 * m <= 1 << 24:
-            kept[begin] = found
-        return found
+            h, direction = kept.pop(begin)
+        else:
+            block = faces[begin:begin + _FACE_BLOCK]
+            h, direction = (part.ravel() for part in _edge_hash(block, np.roll(block, -1, axis=1), vertex_bits))
+            if 3 * m <= 1 << 24:
+                kept[begin] = h, direction
+        return h, direction, np.right_shift(h, shift).view(np.intp)
 
     starts = range(0, m, _FACE_BLOCK)
     for begin in reversed(starts):                         # so that in each slot the earliest edge wins
