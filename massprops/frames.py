@@ -16,7 +16,7 @@ import numpy as np
 
 from .errors import OptionError
 
-__all__ = ["Pose", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
+__all__ = ["Pose", "quaternion_matrices", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
 
 _ORTHONORMAL_TOL = 1e-9
 
@@ -36,6 +36,28 @@ def _axis_rotation(axis, angle):
     return m
 
 
+def quaternion_matrices(quats):
+    """Rotation matrices of quaternions, normalised here (many at once).
+
+    Parameters
+    ----------
+    quats : ndarray, shape (n, 4)
+        ``(w, x, y, z)``, scalar first; finite and non-zero (the caller checks).
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+    """
+    q = np.asarray(quats, dtype=float)
+    norm = np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3])
+    w, x, y, z = (q / norm[:, None]).T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=1)
+
+
 @dataclass(frozen=True, eq=False)
 class Pose:
     """Where a part sits: ``x = rotation @ x' + translation``.
@@ -53,16 +75,9 @@ class Pose:
         q = np.asarray(quat, dtype=float)
         if q.shape != (4,) or not np.all(np.isfinite(q)):
             raise OptionError(f"a quaternion needs 4 finite numbers, got {quat!r}")
-        w, x, y, z = q if scalar_first else np.roll(q, 1)
-        n = math.sqrt(w * w + x * x + y * y + z * z)
-        if n == 0:
+        if not float(q @ q) > 0:          # zero, or so small that its square underflows
             raise OptionError("a quaternion of zero length is no rotation", fix="give w,x,y,z with w=1 for none")
-        w, x, y, z = w / n, x / n, y / n, z / n
-        rotation = np.array([
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ])
+        rotation = quaternion_matrices(q[None] if scalar_first else np.roll(q, 1)[None])[0]
         return cls(rotation, np.asarray(translation, dtype=float))
 
     @classmethod

@@ -113,6 +113,12 @@ def representatives(n, hash_rows, keys=None):
     if n == 0:
         return np.zeros(0, dtype=np.intp)
     index_type = np.int32 if n < 2 ** 31 - 1 else np.intp     # half the memory when it fits
+    if n <= _BLOCK:
+        # One block: the table rounds resolve every row at once, with no second pass.
+        representative = table_rounds(hash_rows(0, n))
+        if keys is not None and not np.array_equal(np.take(keys, representative, axis=0), keys):
+            return None
+        return representative
     local = np.empty(n, dtype=index_type)
     starts = range(0, n, _BLOCK)
     # The blocks are independent: with several cores, a second thread takes

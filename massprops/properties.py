@@ -69,6 +69,56 @@ def _round_error(x):
     return _U * float(np.max(np.abs(x))) if np.size(x) else 0.0
 
 
+class _Ratio:
+    """An exact rational ``n / d`` (d > 0) without reduction: the post-processing's arithmetic.
+
+    Like :class:`fractions.Fraction` but without a gcd per operation (the
+    values are short-lived, so their integers stay small); ``float()`` is
+    Python's correctly rounded integer division, as ``float(Fraction)`` is,
+    so every result is bit for bit the same.
+    """
+
+    __slots__ = ("n", "d")
+
+    def __init__(self, n, d=1):
+        self.n, self.d = (n, d) if d > 0 else (-n, -d)
+
+    @classmethod
+    def of(cls, value):
+        """The exact value of an int, float (numpy scalars too) or Fraction."""
+        if isinstance(value, (float, np.floating)):
+            return cls(*float(value).as_integer_ratio())
+        return cls(*Fraction(value).as_integer_ratio())
+
+    def times_power_of_two(self, k):
+        return _Ratio(self.n << k, self.d) if k >= 0 else _Ratio(self.n, self.d << -k)
+
+    def __add__(self, other):
+        return _Ratio(self.n * other.d + other.n * self.d, self.d * other.d)
+
+    def __sub__(self, other):
+        return _Ratio(self.n * other.d - other.n * self.d, self.d * other.d)
+
+    def __mul__(self, other):
+        if isinstance(other, int):
+            return _Ratio(self.n * other, self.d)
+        return _Ratio(self.n * other.n, self.d * other.d)
+
+    def __truediv__(self, other):
+        if isinstance(other, int):
+            return _Ratio(self.n, self.d * other)
+        return _Ratio(self.n * other.d, self.d * other.n)
+
+    def __pow__(self, k):
+        return _Ratio(self.n ** k, self.d ** k)
+
+    def __neg__(self):
+        return _Ratio(-self.n, self.d)
+
+    def __float__(self):
+        return self.n / self.d
+
+
 @dataclass(frozen=True, eq=False)
 class MassProperties:
     """Mass properties of one solid.
@@ -132,40 +182,39 @@ class MassProperties:
         for name, value in (("density", density), ("mass", mass)):
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise OptionError(f"{name} must be a positive number, got {value!r}")
-        length = Fraction(2) ** moments.scale_exp * unit_factor(unit)
-        m0, e0 = Fraction(moments.det_sum), moments.det_error
-        if m0 <= 0 or m0 <= e0:
+        length = _Ratio.of(unit_factor(unit)).times_power_of_two(moments.scale_exp)
+        m0, e0 = _Ratio.of(moments.det_sum), moments.det_error      # a NaN or infinite sum raises here
+        if moments.det_sum <= 0 or moments.det_sum <= e0:
             raise MeshGeometryError("the solid has zero volume (flat or degenerate: the faces enclose nothing)",
                                     path=path, fix="check the export; a surface needs --shell THICKNESS")
         volume_s = m0 / 6
         volume = volume_s * length ** 3
-        rho = Fraction(density if density is not None else 1) if mass is None else Fraction(mass) / volume
+        rho = _Ratio.of(density if density is not None else 1) if mass is None else _Ratio.of(mass) / volume
         total = rho * volume
         rel_volume = (e0 / 6) / float(volume_s)
         rho_rel_error = rel_volume if mass is not None else 0.0
         error_volume = rel_volume * float(volume) * 1.01 + _round_error(float(volume))
         error_mass = (0.0 if mass is not None else rel_volume * float(total) * 1.01) + _round_error(float(total))
-        surface_area = float(Fraction(moments.area2) / 2 * length ** 2)
+        surface_area = float(_Ratio.of(moments.area2) / 2 * length ** 2)
         com = inertia = None
         error_com = error_inertia = 0.0
         if moments.order >= 1:
-            g = [Fraction(x) / (4 * m0) for x in moments.first]
-            gmax = float(max(abs(x) for x in g))
+            g = [_Ratio.of(x) / (m0 * 4) for x in moments.first]
+            gmax = max(abs(float(x)) for x in g)            # rounding is monotone: the float of the max
             eg = (moments.first_error + 4 * gmax * e0) / (4 * (float(m0) - e0)) * 1.01
-            reference = [Fraction(x) for x in moments.reference]
-            factor = unit_factor(unit)
-            com = np.array([float((r + x * Fraction(2) ** moments.scale_exp) * factor)
-                            for r, x in zip(reference, g)])
+            factor = _Ratio.of(unit_factor(unit))
+            com = np.array([float((_Ratio.of(r) + x.times_power_of_two(moments.scale_exp)) * factor)
+                            for r, x in zip(moments.reference, g)])
             error_com = eg * float(length) + _round_error(com)
             if moments.order >= 2:
-                c = [[Fraction(moments.second[i, j]) / 120 - volume_s * g[i] * g[j] for j in range(3)]
+                c = [[_Ratio.of(moments.second[i, j]) / 120 - volume_s * g[i] * g[j] for j in range(3)]
                      for i in range(3)]
                 ec = (moments.second_error / 120 + (e0 / 6) * gmax ** 2
                       + float(volume_s) * (2 * gmax * eg + eg ** 2)) * 1.01
                 trace = c[0][0] + c[1][1] + c[2][2]
                 scale = rho * length ** 5
-                inertia = np.array([[float(((trace if i == j else 0) - c[i][j]) * scale) for j in range(3)]
-                                    for i in range(3)])
+                inertia = np.array([[float(((trace - c[i][j]) if i == j else -c[i][j]) * scale)
+                                     for j in range(3)] for i in range(3)])
                 error_inertia = (2 * ec * float(scale) + rho_rel_error * float(np.abs(inertia).max()) * 1.01
                                  + _round_error(inertia))
         values = (float(volume), float(total), float(rho), surface_area)

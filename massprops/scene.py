@@ -7,10 +7,9 @@ terms.  The assembly's total is formed with centred formulas: each part's
 ``J_Gi`` is shifted to the total center of mass (``ρ_i = r_i − r``), so no
 large, nearly equal numbers are subtracted.
 
-A scene-graph node may also scale or shear its mesh (``x = L x' + t`` with a
-general ``L``).  ``L`` is split into a rotation and a stretch, ``L = A P``; the
-stretch is applied exactly to the raw moments (``|det P|``, ``|det P| P f``,
-``|det P| P C Pᵀ``) before the usual post-processing, never ignored.
+Scene files are read by :mod:`massprops.scene_toml` (the TOML format, with
+compact lists of many instances held as arrays) and :mod:`massprops.scene_graph`
+(GLB/glTF/3MF, with exact non-uniform scale).
 """
 
 from __future__ import annotations
@@ -18,18 +17,18 @@ from __future__ import annotations
 import math
 import os
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from fractions import Fraction
 
 import numpy as np
 
 from .compute import QUANTITIES, checked_moments, order_for
-from .errors import MassPropsError, MeshFormatError, MeshGeometryError, MeshReadError
+from .errors import MassPropsError, MeshFormatError, MeshReadError
 from .frames import Pose
 from .properties import ErrorBounds, MassProperties, unit_factor
 
-__all__ = ["Part", "Frame", "ReportRequest", "Scene", "SceneResult", "load_scene", "compute_scene",
-           "combine_parts", "stretched_moments"]
+__all__ = ["Part", "Placements", "Frame", "ReportRequest", "Scene", "SceneResult", "load_scene", "compute_scene",
+           "combine_parts"]
 
 _U = 2.0 ** -53
 SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf")
@@ -37,8 +36,30 @@ DEFAULT_QUANTITIES = frozenset(q for q in QUANTITIES if q != "principal")
 
 
 @dataclass(frozen=True, eq=False)
+class Placements:
+    """Many poses of one part, held as arrays (no per-instance objects).
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (n, 3, 3)
+        ``A_k``: proper rotations, instance ``k`` at ``x = A_k x' + t_k``.
+    translation : ndarray, shape (n, 3)
+        ``t_k``, mesh units.
+    names : tuple of str or None
+        The instances' names; None names them ``PART[k]``, ``k`` from 0.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    names: tuple | None = None
+
+    def __len__(self):
+        return int(self.translation.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
 class Part:
-    """One placed solid.
+    """One placed solid, or (with ``placements``) the same solid placed many times.
 
     Attributes
     ----------
@@ -47,18 +68,51 @@ class Part:
         Key of its mesh in :attr:`Scene.meshes` (a file path for TOML scenes).
     pose : Pose
         ``x = A x'' + t`` for points ``x''`` of the stretched mesh (the mesh itself if rigid).
+        Ignored when ``placements`` is given.
     density, mass : float or None
-        At most one; density 1 when neither is given.
+        At most one; density 1 when neither is given (``mass`` is per instance).
     stretch : ndarray, shape (3, 3), or None
         ``P`` of a non-rigid placement (local points ``x'' = P x'``); None when rigid.
+    density_field, density_map : str, dict of str to float, or None
+        Per-cell density of a volume mesh (see :func:`massprops.volume.cell_densities`).
+    placements : Placements or None
+        The instances' poses, when the part stands for many.
     """
 
     name: str
     mesh: str
-    pose: Pose
+    pose: Pose = field(default_factory=Pose)
     density: float | None = None
     mass: float | None = None
     stretch: np.ndarray | None = None
+    density_field: str | None = None
+    density_map: dict | None = None
+    placements: Placements | None = None
+
+    @property
+    def count(self):
+        """Number of instances."""
+        return 1 if self.placements is None else len(self.placements)
+
+    def arrays(self):
+        """``(rotation (n, 3, 3), translation (n, 3))`` of every instance."""
+        if self.placements is None:
+            return self.pose.rotation[None], self.pose.translation[None]
+        return self.placements.rotation, self.placements.translation
+
+    def instance_names(self):
+        """The instances' names, in order."""
+        if self.placements is None:
+            return (self.name,)
+        return self.placements.names or tuple(f"{self.name}[{k}]" for k in range(self.count))
+
+    def instances(self):
+        """One rigid :class:`Part` per instance (built only for per-part output)."""
+        if self.placements is None:
+            return (self,)
+        rotation, translation = self.arrays()
+        return tuple(replace(self, name=name, pose=Pose(rotation[k], translation[k]), placements=None)
+                     for k, name in enumerate(self.instance_names()))
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,16 +161,32 @@ class Scene:
     report: ReportRequest = field(default_factory=ReportRequest)
     meshes: dict = field(default_factory=dict)
 
+    def placed_parts(self):
+        """Every instance as its own rigid :class:`Part`, in order."""
+        return tuple(one for part in self.parts for one in part.instances())
+
+    def part_pose(self, name):
+        """The pose of the part or instance called ``name`` (KeyError if none)."""
+        for part in self.parts:
+            if part.name == name and part.placements is None:
+                return part.pose
+        for part in self.parts:
+            if part.placements is not None and name in part.instance_names():
+                rotation, translation = part.arrays()
+                k = part.instance_names().index(name)
+                return Pose(rotation[k], translation[k])
+        raise KeyError(name)
+
     def frame_poses(self, length=1.0):
-        """Global pose of every named frame, and of every part (its own frame), by name.
+        """Global pose of every named frame, and of every part named in ``report.about``, by name.
 
         ``length`` converts the scene's positions (mesh units) to the output unit.
         """
-        by_part = {p.name: _scaled(p.pose, length) for p in self.parts}
-        poses = dict(by_part)
+        poses = {name: _scaled(self.part_pose(name), length) for name in self.report.about
+                 if name not in self.frames}
         for frame in self.frames.values():
             pose = _scaled(frame.pose, length)
-            poses[frame.name] = by_part[frame.part].compose(pose) if frame.part else pose
+            poses[frame.name] = _scaled(self.part_pose(frame.part), length).compose(pose) if frame.part else pose
         return poses
 
 
@@ -142,7 +212,8 @@ class SceneResult:
     """Per-part properties (each with its pose), the total (global axes), and the bookkeeping.
 
     ``parts`` is empty unless the report asks for parts; ``frames`` holds the
-    global pose of every named frame and part, in output units.
+    global pose of every named frame and of every part named in ``report.about``,
+    in output units.
     """
 
     scene: Scene
@@ -164,106 +235,15 @@ def load_scene(path, *, density=None, unit=None):
     if not os.path.isfile(path):
         raise MeshReadError("no such scene file", path=path, fix="check the path")
     if path.lower().endswith(SCENE_EXTENSIONS):
-        scene = _graph_scene(path, density)
+        from .scene_graph import graph_scene
+        scene = graph_scene(path, density)
     elif path.lower().endswith(".toml"):
-        scene = _toml_scene(path, density)
+        from .scene_toml import toml_scene
+        scene = toml_scene(path, density)
     else:
         raise MeshFormatError("unknown scene format", path=path,
                               fix="give a .toml scene or a .glb/.gltf/.3mf scene graph")
     return replace(scene, report=replace(scene.report, unit=unit)) if unit else scene
-
-
-def _graph_scene(path, density):
-    """Every node with geometry becomes a part with its world transform (instances share meshes)."""
-    from .io.trimesh_formats import load_trimesh
-    from .mesh import TriangleMesh
-    loaded = load_trimesh(path)
-    if not hasattr(loaded, "graph"):
-        loaded = __import__("trimesh").Scene(loaded)
-    nodes = sorted(loaded.graph.nodes_geometry)
-    if not nodes:
-        raise MeshFormatError("the scene holds no geometry", path=path, fix="export the parts as meshes")
-    placements = [loaded.graph[node] for node in nodes]
-    matrices = np.array([np.asarray(m, dtype=float) for m, _ in placements])
-    poses = placement_poses(matrices[:, :3, :3], matrices[:, :3, 3], path=path)
-    meshes = {}
-    for name in dict.fromkeys(name for _, name in placements):
-        geometry = loaded.geometry[name]
-        # Welded by exact coordinates, as every reader does: exporters often split vertices per face.
-        triangles = np.asarray(geometry.vertices, dtype=np.float64)[np.asarray(geometry.faces, dtype=np.int64)]
-        meshes[f"{path}#{name}"] = TriangleMesh.from_triangles(triangles)
-    parts = tuple(Part(node, f"{path}#{name}", pose, density=density, stretch=stretch)
-                  for node, (_, name), (pose, stretch) in zip(nodes, placements, poses))
-    return Scene(path, parts, meshes=meshes)
-
-
-def placement_poses(linear, translation, *, path=None):
-    """Split placements ``x = L x' + t`` into a pose and a stretch: ``L = A P``.
-
-    Parameters
-    ----------
-    linear : ndarray, shape (n, 3, 3)
-    translation : ndarray, shape (n, 3)
-
-    Returns
-    -------
-    list of (Pose, ndarray (3, 3) or None)
-        ``A`` a proper rotation (polar decomposition, a reflection moved into
-        ``P``); ``P`` None where ``L`` is already a rotation to rounding.
-    """
-    defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(linear)
-    if not np.all(np.isfinite(linear)) or np.any(det == 0):
-        raise MeshGeometryError("a node's transform is singular or not finite", path=path,
-                                fix="give every instance a non-zero scale")
-    rigid = (defect <= 16 * _U) & (det > 0)
-    out = []
-    for k in range(linear.shape[0]):
-        if rigid[k]:
-            out.append((Pose(linear[k], translation[k]), None))
-            continue
-        u, _, vt = np.linalg.svd(linear[k])
-        rotation = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
-        out.append((Pose(rotation, translation[k]), rotation.T @ linear[k]))
-    return out
-
-
-def stretched_moments(moments, stretch):
-    """Raw moments of the mesh mapped by ``P`` (``x'' = P x'``), exactly up to one rounding each.
-
-    With ``y`` the scaled coordinates of :class:`massprops.integrate.Moments`,
-    ``Σdet ↦ |det P| Σdet``, ``first ↦ |det P| P first``, ``second ↦
-    |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
-    rationals).  The area is not a function of the moments; it is set by the
-    caller from the faces (see :func:`stretched_area2`).
-    """
-    p = [[Fraction(float(x)) for x in row] for row in stretch]
-    det = abs(p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
-              + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]))
-    norm = float(max(sum(abs(x) for x in row) for row in p))
-
-    def mapped(vector):
-        return [sum(row[k] * vector[k] for k in range(3)) for row in p]
-
-    det_sum = float(Fraction(moments.det_sum) * det)
-    first = np.array([float(x * det) for x in mapped([Fraction(v) for v in moments.first])])
-    second_rows = [mapped([Fraction(float(v)) for v in column]) for column in np.asarray(moments.second).T]
-    second = np.array([[float(det * sum(p[i][k] * second_rows[k][j] for k in range(3))) for j in range(3)]
-                       for i in range(3)])
-    d = float(det) * (1 + 4 * _U)
-    return replace(moments, reference=tuple(mapped([Fraction(x) for x in moments.reference])),
-                   det_sum=det_sum, det_error=moments.det_error * d + _U * abs(det_sum),
-                   first=first, first_error=moments.first_error * d * norm + _U * float(np.abs(first).max()),
-                   second=second,
-                   second_error=moments.second_error * d * norm ** 2 + _U * float(np.abs(second).max()))
-
-
-def stretched_area2(mesh, stretch, scale_exp):
-    """``Σ |cof(P) n_f|`` in the moments' scaled units: twice the stretched surface's area."""
-    triangles = mesh.vertices[mesh.faces]
-    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    cofactor = np.linalg.det(stretch) * np.linalg.inv(stretch).T
-    return math.ldexp(float(np.linalg.norm(normal @ cofactor.T, axis=1).sum()), -2 * scale_exp)
 
 
 def compute_scene(scene, *, repair=False):
@@ -278,29 +258,43 @@ def compute_scene(scene, *, repair=False):
     order = request.order
     records = _integrate_meshes(scene, order, repair)
     wanted = request.quantities | ({"principal"} if request.principal else set())
-    cache, local = {}, []
-    frames = scene.frame_poses(float(unit_factor(request.unit)))
-    poses = [frames[part.name] for part in scene.parts]
+    cache, local, which = {}, [], []
     for part in scene.parts:
-        key = (part.mesh, None if part.stretch is None else part.stretch.tobytes(), part.density, part.mass)
+        key = (part.mesh, None if part.stretch is None else part.stretch.tobytes(), part.density, part.mass,
+               part.density_field, None if part.density_map is None else tuple(part.density_map.items()))
         if key not in cache:
-            cache[key] = _local_properties(part, records[part.mesh], request.unit, "surface_area" in wanted)
-        local.append(cache[key])
+            cache[key] = len(local)
+            local.append(_local_properties(part, records, request.unit, wanted, repair))
+        which.append(cache[key])
+    index = np.repeat(np.array(which, dtype=np.int64), [part.count for part in scene.parts])
+    length = float(unit_factor(request.unit))
+    arrays = [part.arrays() for part in scene.parts]
+    rotation = np.concatenate([r for r, _ in arrays])
+    translation = np.concatenate([t for _, t in arrays]) * length
     # Posed per-part objects only when parts are reported: the total works on arrays.
-    parts = tuple(props.with_pose(pose) for props, pose in zip(local, poses)) if request.parts else ()
-    total = combine_parts(local, poses, unit=request.unit) if request.total else None
+    parts = tuple(local[i].with_pose(Pose(rotation[k], translation[k])) for k, i in enumerate(index)) \
+        if request.parts else ()
+    total = _combine(local, index, rotation, translation, request.unit) if request.total else None
     principal = (len(parts) if "parts" in request.principal else 0) + (
         1 if total is not None and "total" in request.principal else 0)
-    stats = {"meshes_read": len(records), "meshes_integrated": len(records), "instances": len(local),
-             "properties_formed": len(cache), "moment_order": order,
+    volume_forms = sum(1 for key in cache if records[key[0]].moments is None)
+    stats = {"meshes_read": len(records),
+             "meshes_integrated": sum(1 for r in records.values() if r.moments is not None) + volume_forms,
+             "instances": int(index.size), "properties_formed": len(cache), "moment_order": order,
              "quantities_computed": sorted(q for q in wanted if QUANTITIES[q] <= order),
              "principal_decompositions": principal if order >= 2 else 0}
-    return SceneResult(scene, parts, total, records, frames, stats, time.perf_counter() - start)
+    return SceneResult(scene, parts, total, records, scene.frame_poses(length), stats,
+                       time.perf_counter() - start)
 
 
 def _integrate_meshes(scene, order, repair):
-    """Read and integrate each distinct mesh once; a failure names the first part that uses it."""
+    """Read each distinct mesh once and integrate each surface once; a failure names the first part using it.
+
+    A volume mesh is only read here: its integrals depend on the part's cell
+    densities, so :func:`_local_properties` forms them.
+    """
     from .io import read
+    from .mesh import TriangleMesh
     records = {}
     for part in scene.parts:
         if part.mesh in records:
@@ -308,227 +302,138 @@ def _integrate_meshes(scene, order, repair):
         source = scene.meshes.get(part.mesh, part.mesh)
         path = source if isinstance(source, str) else part.mesh
         began = time.perf_counter()
-        try:
+        with _naming(part, path):
             mesh = read(source) if isinstance(source, str) else source
-            moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
-        except MassPropsError as exc:
-            raise type(exc)(f"part {part.name!r}: {exc.problem}", path=path, fix=exc.fix) from None
-        records[part.mesh] = MeshRecord(part.mesh, moments, mesh, int(mesh.faces.shape[0]), checks,
-                                        tuple(warnings), time.perf_counter() - began)
+            moments, checks, warnings = None, {}, ()
+            if isinstance(mesh, TriangleMesh):
+                moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
+        triangles = int(mesh.faces.shape[0]) if moments is not None else 0
+        records[part.mesh] = MeshRecord(part.mesh, moments, mesh, triangles, checks, tuple(warnings),
+                                        time.perf_counter() - began)
     return records
 
 
-def _local_properties(part, record, unit, want_area):
-    """A part's properties in its own frame (pose left to the caller)."""
-    moments = record.moments
-    if part.stretch is not None:
-        moments = stretched_moments(moments, part.stretch)
-        moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
-                          if want_area else 0.0)
+@contextmanager
+def _naming(part, path):
+    """Re-raise a mesh's error with the part's name in front and the mesh's file as the path."""
     try:
+        yield
+    except MassPropsError as exc:
+        raise type(exc)(f"part {part.name!r}: {exc.problem}", path=exc.path or path, fix=exc.fix) from None
+
+
+def _local_properties(part, records, unit, wanted, repair):
+    """A part's properties in its own frame (pose left to the caller).
+
+    A volume mesh is integrated here with the part's densities, and its
+    record gets the checks of that integration.
+    """
+    record = records[part.mesh]
+    with _naming(part, record.key):
+        if record.moments is None or part.density_field is not None or part.density_map is not None:
+            from .compute import mass_properties
+            result = mass_properties(record.mesh, density=part.density, mass=part.mass, unit=unit,
+                                     repair=repair, only=wanted, density_field=part.density_field,
+                                     density_map=part.density_map)
+            records[part.mesh] = replace(record, triangles=result.triangles, checks=result.checks,
+                                         warnings=result.warnings)
+            return result.properties
+        moments = record.moments
+        if part.stretch is not None:
+            from .scene_graph import stretched_area2, stretched_moments
+            moments = stretched_moments(moments, part.stretch)
+            moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
+                              if "surface_area" in wanted else 0.0)
         return MassProperties.from_moments(moments, density=part.density, mass=part.mass, unit=unit,
                                            path=record.key)
-    except MassPropsError as exc:
-        raise type(exc)(f"part {part.name!r}: {exc.problem}", path=record.key, fix=exc.fix) from None
 
 
 def combine_parts(parts, poses=None, *, unit=None):
     """The assembly of parts as one :class:`MassProperties` in global axes (identity pose).
 
     ``parts`` are :class:`MassProperties`, placed at ``poses`` (a Pose each) or,
-    without ``poses``, at their own ``pose``.
+    without ``poses``, at their own ``pose``.  See :func:`_combine`.
+    """
+    poses = [p.pose for p in parts] if poses is None else poses
+    rotation = np.array([pose.rotation for pose in poses])
+    translation = np.array([pose.translation for pose in poses])
+    return _combine(list(parts), np.arange(len(parts)), rotation, translation, unit)
+
+
+def _combine(local, index, rotation, translation, unit):
+    """The total of instances ``k`` of the parts ``local[index[k]]`` at poses ``(rotation[k], translation[k])``.
 
     Masses and volumes add; the center of mass is the mass-weighted mean of the
-    parts' global centers, accumulated relative to the heaviest part's; the
-    inertia is ``Σ (A_i J_Gi' A_iᵀ + m_i (ρ_iᵀρ_i I − ρ_i ρ_iᵀ))`` with
-    ``ρ_i = r_i − r``.  Error bounds add the parts' bounds, propagated
-    through these formulas, and the rounding of the sums.
+    instances' global centers, accumulated relative to the heaviest one's; the
+    inertia is ``Σ (A_k J_Gk' A_kᵀ + m_k (ρ_kᵀρ_k I − ρ_k ρ_kᵀ))`` with
+    ``ρ_k = r_k − r``.  Error bounds add the parts' bounds, propagated
+    through these formulas, and the rounding of the sums.  Everything is
+    array arithmetic over the instances.
+
+    Parameters
+    ----------
+    local : list of MassProperties
+        Distinct parts, local frames.
+    index : ndarray, shape (n,), int
+    rotation : ndarray, shape (n, 3, 3)
+    translation : ndarray, shape (n, 3)
+        Output units.
     """
-    mass = np.array([p.mass for p in parts])
-    volume = math.fsum(p.volume for p in parts)
-    total_mass = math.fsum(mass)
-    gamma = (8 + len(parts).bit_length()) * _U
-    err_mass = math.fsum(p.error.mass for p in parts) + gamma * total_mass
-    error = dict(volume=math.fsum(p.error.volume for p in parts) + gamma * volume, mass=err_mass)
+    def per_instance(get):
+        return np.array([get(p) for p in local], dtype=float)[index]
+
+    def exact_sum(values):
+        return math.fsum(values.tolist())       # lists sum far faster than numpy scalars
+
+    mass, volume = per_instance(lambda p: p.mass), per_instance(lambda p: p.volume)
+    total_mass, total_volume = exact_sum(mass), exact_sum(volume)
+    gamma = (8 + int(index.size).bit_length()) * _U
+    err_mass_i = per_instance(lambda p: p.error.mass)
+    err_mass = exact_sum(err_mass_i) + gamma * total_mass
+    error = dict(volume=exact_sum(per_instance(lambda p: p.error.volume)) + gamma * total_volume, mass=err_mass)
     com = inertia = None
-    if parts[0].center_of_mass is not None:
-        poses = [p.pose for p in parts] if poses is None else poses
-        com, inertia, error = _combine_moments(parts, poses, mass, total_mass, gamma, error)
-    surface_area = math.fsum(p.surface_area for p in parts)
-    return MassProperties(volume, total_mass, total_mass / volume, surface_area, com, inertia,
+    if local[0].center_of_mass is not None:
+        com, inertia, error = _combine_moments(local, index, rotation, translation, mass, err_mass_i,
+                                               total_mass, gamma, error)
+    surface_area = exact_sum(per_instance(lambda p: p.surface_area))
+    return MassProperties(total_volume, total_mass, total_mass / total_volume, surface_area, com, inertia,
                           ErrorBounds(**error), Pose(), unit)
 
 
-def _combine_moments(parts, poses, mass, total_mass, gamma, error):
-    rotation = np.array([pose.rotation for pose in poses])
-    local = np.array([p.center_of_mass for p in parts])
-    position = np.einsum("nij,nj->ni", rotation, local) + np.array([pose.translation for pose in poses])
+def _combine_moments(local, index, rotation, translation, mass, err_mass_i, total_mass, gamma, error):
+    position = np.einsum("nij,nj->ni", rotation, np.array([p.center_of_mass for p in local])[index]) + translation
     base = position[int(np.argmax(mass))]
-    com = base + (mass @ (position - base)) / total_mass
+    com = base + _pairwise_sum((position - base) * mass[:, None]) / total_mass
     rho = position - com
     reach = np.abs(rho).max(axis=1)
     # Rotations are orthonormal only to rounding; their defect scales what they carry.
     defect = np.abs(rotation @ rotation.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
-    err_position = np.array([p.error.center_of_mass for p in parts]) * (1.8 + defect) + 4 * _U * (
+    err_position = np.array([p.error.center_of_mass for p in local])[index] * (1.8 + defect) + 4 * _U * (
         np.abs(position).max(axis=1))
-    err_mass_i = np.array([p.error.mass for p in parts])
     err_com = float(mass @ err_position + err_mass_i @ reach) / (total_mass - error["mass"]) * 1.01 + gamma * float(
         np.abs(position).max() + np.abs(com).max())
     error["center_of_mass"] = err_com
-    if parts[0].inertia_com is None:
+    if local[0].inertia_com is None:
         return com, None, error
-    local_inertia = np.array([p.inertia_com for p in parts])
-    rotated = np.einsum("nij,njk,nlk->nil", rotation, local_inertia, rotation)
-    shift = mass[:, None, None] * (np.einsum("ni,ni->n", rho, rho)[:, None, None] * np.eye(3)
-                                   - np.einsum("ni,nj->nij", rho, rho))
-    inertia = (rotated + shift).sum(axis=0)
-    size = np.abs(local_inertia).max(axis=(1, 2))
+    local_inertia = np.array([p.inertia_com for p in local])
+    terms = rotation @ local_inertia[index] @ rotation.transpose(0, 2, 1) - mass[:, None, None] * (
+        rho[:, :, None] * rho[:, None, :])
+    terms[:, range(3), range(3)] += (mass * np.einsum("ni,ni->n", rho, rho))[:, None]
+    inertia = _pairwise_sum(terms.reshape(-1, 9)).reshape(3, 3)
+    size = np.abs(local_inertia).max(axis=(1, 2))[index]
     # Σ m_i P(r_i − c̃) = Σ m_i P(r_i − c) + M P(c − c̃) since Σ m_i (r_i − c) = 0: the error of the
     # total COM enters only squared; the parts' own position and mass errors enter linearly.
-    err_inertia = (np.array([p.error.inertia_com for p in parts]) * 3 * (1 + defect) + 6 * defect * size
+    err_inertia = (np.array([p.error.inertia_com for p in local])[index] * 3 * (1 + defect) + 6 * defect * size
                    + 2 * err_mass_i * reach ** 2 + mass * (4 * reach * err_position + 2 * err_position ** 2))
     error["inertia_com"] = (float(err_inertia.sum()) + 2 * total_mass * err_com ** 2) * 1.01 + (
         gamma + 16 * _U) * float((3 * size + 2 * mass * reach ** 2).sum())
     return com, inertia, error
 
 
+def _pairwise_sum(rows):
+    """Column sums of ``rows`` (n, k), summed pairwise: rounding within gamma's (8 + log₂ n) u.
 
-# -- TOML scenes -------------------------------------------------------------
-
-_PART_KEYS = {"mesh", "density", "mass", "position", "rotation"}
-_FRAME_KEYS = {"position", "rotation", "part"}
-_REPORT_KEYS = {"parts", "total", "quantities", "principal", "about", "unit"}
-_ROTATION_FORMS = ('give exactly one of quaternion = [w, x, y, z], euler = [a, b, c] with sequence = "ZYX" '
-                   '(degrees; lower case extrinsic, upper case intrinsic), or matrix = [[...], [...], [...]]')
-
-
-def _toml_scene(path, density):
-    """Parse a TOML scene (format in the README): ``[parts.NAME]``, ``[frames.NAME]``, ``[report]``."""
-    try:
-        import tomllib
-    except ImportError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise MeshFormatError(f"not valid TOML ({exc})", path=path, fix="fix the scene file's syntax") from None
-    where = "the scene"
-    try:
-        _known(data, {"parts", "frames", "report"})
-        folder = os.path.dirname(path)
-        parts = []
-        for name, spec in _table(data, "parts").items():
-            where = f"part {name!r}"
-            parts.append(_toml_part(name, spec, folder, density))
-        if not parts:
-            raise MeshFormatError("no parts", fix="add a [parts.NAME] table with mesh = \"file.stl\"")
-        frames = {}
-        for name, spec in _table(data, "frames").items():
-            where = f"frame {name!r}"
-            frames[name] = _toml_frame(name, spec, {p.name for p in parts})
-        where = "[report]"
-        report = _toml_report(_table(data, "report"), set(frames) | {p.name for p in parts})
-    except MassPropsError as exc:
-        raise type(exc)(f"{where}: {exc.problem}", path=path, fix=exc.fix) from None
-    return Scene(path, tuple(parts), frames, report)
-
-
-def _table(data, key):
-    value = data.get(key, {})
-    if not isinstance(value, dict):
-        raise MeshFormatError(f"{key!r} must be a table", fix=f"write it as [{key}.NAME] sections")
-    return value
-
-
-def _known(spec, keys):
-    if not isinstance(spec, dict):
-        raise MeshFormatError("must be a table of keys")
-    unknown = sorted(set(spec) - keys)
-    if unknown:
-        raise MeshFormatError(f"unknown key {unknown[0]!r}", fix=f"use {', '.join(sorted(keys))}")
-
-
-def _toml_pose(spec):
-    position = spec.get("position", [0.0, 0.0, 0.0])
-    if not (isinstance(position, list) and len(position) == 3 and all(_is_number(v) for v in position)):
-        raise MeshFormatError(f"position must be 3 numbers, got {position!r}", fix="write position = [x, y, z]")
-    rotation = spec.get("rotation")
-    if rotation is None:
-        return Pose(translation=np.asarray(position, dtype=float))
-    forms = {"quaternion": {"quaternion"}, "euler": {"euler", "sequence"}, "matrix": {"matrix"}}
-    keys = set(rotation) if isinstance(rotation, dict) else set()
-    form = next((name for name, need in forms.items() if keys == need), None)
-    values = rotation.get(form) if form else None
-    flat = [v for row in values for v in (row if isinstance(row, list) else [row])] if isinstance(
-        values, list) else [values]
-    if form is None or not all(_is_number(v) for v in flat):
-        raise MeshFormatError(f"cannot read rotation {rotation!r}", fix=_ROTATION_FORMS)
-    if form == "euler":
-        if not isinstance(rotation["sequence"], str):
-            raise MeshFormatError("the Euler sequence must be a string", fix=_ROTATION_FORMS)
-        return Pose.from_euler(rotation["sequence"], rotation["euler"], degrees=True, translation=position)
-    if form == "quaternion":
-        return Pose.from_quat(rotation["quaternion"], translation=position)
-    return Pose.from_matrix(rotation["matrix"], translation=position)
-
-
-def _is_number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _toml_part(name, spec, folder, density):
-    _known(spec, _PART_KEYS)
-    if name in ("origin", "com", "total"):
-        raise MeshFormatError(f"the name {name!r} is reserved", fix="rename the part")
-    mesh = spec.get("mesh")
-    if not isinstance(mesh, str) or not mesh:
-        raise MeshFormatError("needs mesh = \"path\" (relative to the scene file)")
-    for key in ("density", "mass"):
-        if key in spec and not _is_number(spec[key]):
-            raise MeshFormatError(f"{key} must be a number, got {spec[key]!r}")
-    mass = spec.get("mass")
-    part_density = spec.get("density", None if mass is not None else density)
-    return Part(name, os.path.normpath(os.path.join(folder, mesh)), _toml_pose(spec), density=part_density,
-                mass=mass)
-
-
-def _toml_frame(name, spec, part_names):
-    _known(spec, _FRAME_KEYS)
-    if name in part_names or name in ("origin", "com", "total"):
-        raise MeshFormatError(f"the name {name!r} is already a part's or reserved", fix="rename the frame")
-    part = spec.get("part")
-    if part is not None and part not in part_names:
-        raise MeshFormatError(f"is attached to unknown part {part!r}", fix=f"use one of {', '.join(part_names)}")
-    return Frame(name, _toml_pose(spec), part)
-
-
-def _toml_report(spec, frame_names):
-    _known(spec, _REPORT_KEYS)
-    quantities = spec.get("quantities", sorted(DEFAULT_QUANTITIES))
-    bad = [q for q in quantities if not isinstance(q, str) or q not in DEFAULT_QUANTITIES] if isinstance(
-        quantities, list) and quantities else [quantities]
-    if bad:
-        raise MeshFormatError(f"unknown quantity {bad[0]!r}", fix=f"pick from {', '.join(sorted(DEFAULT_QUANTITIES))}")
-    principal = spec.get("principal", "total")
-    scopes = {True: {"total"}, False: set(), "none": set(), "total": {"total"}, "parts": {"parts"},
-              "all": {"total", "parts"}}
-    if not isinstance(principal, (bool, str)) or principal not in scopes:
-        raise MeshFormatError(f"principal = {principal!r} is not understood",
-                              fix="use \"total\", \"parts\", \"all\", \"none\", true or false")
-    about = spec.get("about", [])
-    unknown = [a for a in about if not isinstance(a, str) or a not in frame_names] if isinstance(
-        about, list) else [about]
-    if unknown:
-        raise MeshFormatError(f"about names unknown frame or part {unknown[0]!r}",
-                              fix="name frames from [frames.NAME] or parts from [parts.NAME]")
-    if about and "inertia" not in quantities:
-        raise MeshFormatError("about needs the inertia", fix='add "inertia" to quantities')
-    unit = spec.get("unit")
-    if unit is not None:
-        unit_factor(unit)
-    flags = {key: spec.get(key, True) for key in ("parts", "total")}
-    if not all(isinstance(v, bool) for v in flags.values()):
-        raise MeshFormatError("parts and total must be true or false")
-    return ReportRequest(flags["parts"], flags["total"], frozenset(quantities), frozenset(scopes[principal]),
-                         tuple(about), unit)
+    numpy sums pairwise only along a contiguous axis (a matrix product or a
+    reduction over the outer axis adds in sequence, with error growing as n u).
+    """
+    return np.ascontiguousarray(rows.T).sum(axis=1)

@@ -384,3 +384,202 @@ def test_3mf_scene_matches_its_glb(tmp_path, runner):
     for key in ("mass", "center_of_mass", "inertia_com"):
         a, b = np.array(from_3mf["total"][key]), np.array(from_glb["total"][key])
         assert np.abs(a - b).max() <= 1e-13 * max(1.0, float(np.abs(b).max())), key
+
+
+# -- many instances in compact form --------------------------------------------------------------------------
+
+def _random_placements(count, seed):
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(count, 4)), rng.uniform(-50, 50, size=(count, 3))
+
+
+def _tables(mesh, quats, positions, prefix):
+    return "".join(f'[parts.{prefix}{k}]\nmesh = "{mesh}"\ndensity = 2.5\nposition = {positions[k].tolist()}\n'
+                   f"rotation = {{ quaternion = {quats[k].tolist()} }}\n\n" for k in range(len(quats)))
+
+
+def test_compact_instances_equal_the_same_parts_as_tables(tmp_path, runner):
+    _write(tmp_path, "bracket.stl", solids.l_bracket(3.0, 1.0, 0.5))
+    _write(tmp_path, "block.stl", solids.box(*BOXES["block"]))
+    brackets, blocks = _random_placements(7, 1), _random_placements(5, 2)
+    with open(tmp_path / "brackets.csv", "w") as handle:
+        handle.write("# placements of the bracket\nqw, qx, qy, qz, x, y, z, name\n\n")
+        handle.writelines(",".join(repr(float(v)) for v in (*q, *p)) + f",br{k}\n"
+                          for k, (q, p) in enumerate(zip(*brackets)))
+    compact = _toml(tmp_path / "compact.toml",
+                    '[parts.br]\nmesh = "bracket.stl"\ndensity = 2.5\ninstances = "brackets.csv"\n\n'
+                    f'[parts.bl]\nmesh = "block.stl"\ndensity = 2.5\npositions = {blocks[1].tolist()}\n'
+                    f"quaternions = {blocks[0].tolist()}\n\n"
+                    '[frames.tip]\npart = "br3"\nposition = [1.0, 2.0, 3.0]\n\n[report]\nabout = ["tip", "bl[4]"]\n')
+    frames = '[frames.tip]\npart = "br3"\nposition = [1.0, 2.0, 3.0]\n\n[report]\nabout = ["tip", "bl4"]\n'
+    tables = _toml(tmp_path / "tables.toml", _tables("bracket.stl", *brackets, "br")
+                   + _tables("block.stl", *blocks, "bl") + frames)
+    ours, theirs = _json(runner, compact), _json(runner, tables)
+    assert ours["stats"]["instances"] == 12 and ours["stats"]["meshes_integrated"] == 2
+    assert [p["name"] for p in ours["parts"]] == [f"br{k}" for k in range(7)] + [f"bl[{k}]" for k in range(5)]
+    for key in ("volume", "mass", "center_of_mass", "inertia_com", "inertia_origin", "principal_moments"):
+        a, b = np.array(ours["total"][key]), np.array(theirs["total"][key])
+        assert np.abs(a - b).max() <= 1e-14 * float(np.abs(b).max()), key
+    for a, b in zip(ours["total"]["inertia_in_frames"], theirs["total"]["inertia_in_frames"]):
+        assert np.abs(np.array(a["inertia"]) - b["inertia"]).max() <= 1e-14 * float(np.abs(b["inertia"]).max())
+    for a, b in zip(ours["parts"], theirs["parts"]):
+        assert np.abs(np.array(a["inertia_com_global"]) - b["inertia_com_global"]).max() <= 1e-14 * float(
+            np.abs(b["inertia_com_global"]).max())
+
+
+def test_many_compact_instances_against_the_closed_form(tmp_path):
+    """2,000 cubes at integer points, unrotated: exact mass, COM and inertia of point masses plus cubes."""
+    _write(tmp_path, "cube.stl", solids.box((1.0, 1.0, 1.0)))
+    positions = np.random.default_rng(4).integers(-100, 100, size=(2000, 3))
+    with open(tmp_path / "cubes.csv", "w") as handle:
+        handle.write("x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in positions))
+    result = assembly.compute_scene(assembly.load_scene(_toml(
+        tmp_path / "cubes.toml", '[parts.cube]\nmesh = "cube.stl"\ninstances = "cubes.csv"\n'
+                                 '[report]\nparts = false\n')))
+    n = Fraction(len(positions))
+    com = [Fraction(int(s)) / n for s in positions.sum(axis=0)]
+    rho = [[Fraction(int(v)) - com[i] for i, v in enumerate(p)] for p in positions]
+    second = [[sum(r[i] * r[j] for r in rho) for j in range(3)] for i in range(3)]
+    trace = sum(second[i][i] for i in range(3))
+    inertia = [[(n / 6 + trace if i == j else 0) - second[i][j] for j in range(3)] for i in range(3)]
+    total = result.total
+    assert result.stats["instances"] == 2000 and result.stats["meshes_integrated"] == 1 and result.parts == ()
+    assert abs(Fraction(total.mass) - n) <= Fraction(total.error.mass)
+    assert max(abs(Fraction(total.center_of_mass[i]) - com[i]) for i in range(3)) <= Fraction(
+        total.error.center_of_mass)
+    assert max(abs(Fraction(total.inertia_com[i, j]) - inertia[i][j]) for i in range(3) for j in range(3)) <= \
+        Fraction(total.error.inertia_com)
+
+
+@pytest.mark.parametrize("rows, fragment", [
+    ("x,y,z\n1,2,3\n4,abc,5\n", "line 3: y = 'abc' is not a number"),
+    ("x,y,z\n1,2,3\n\n4,5\n", "line 4: 2 columns, the header has 3"),
+    ("x,y,z,qw,qx\n1,2,3,1,0\n", "line 1: cannot read the header"),
+    ("x,y,zz\n1,2,3\n", "line 1: cannot read the header"),
+    ("x,y,z,qw,qx,qy,qz\n1,2,3,1,0,0,0\n1,2,3,0,0,0,0\n", "line 3: a quaternion of zero length"),
+    ("x,y,z\n1,2,3\n1,nan,3\n", "line 3: a value is not finite"),
+    ("name,x,y,z\na,1,2,3\nb,1,2,3\na,4,5,6\n", "line 4: the name 'a' is used twice"),
+    ("name,x,y,z\na,1,2,3\n,1,2,3\n", "line 3: the name is empty"),
+    ("# nothing\nx,y,z\n", "no instances"),
+])
+def test_bad_instance_rows_name_the_file_and_line(tmp_path, runner, rows, fragment):
+    csv = tmp_path / "bolts.csv"
+    csv.write_text(rows)
+    error = _refused(runner, tmp_path, 'instances = "bolts.csv"')
+    assert error.startswith(f"error: {csv}: part 'bolts': ") and fragment in error
+
+
+def _refused(runner, directory, keys):
+    """stderr of a scene whose one part ``bolts`` has ``keys``: one error line, exit 1."""
+    _write(directory, "block.stl", solids.box(*BOXES["block"]))
+    result = _run(runner, _toml(directory / "s.toml", f'[parts.bolts]\nmesh = "block.stl"\n{keys}\n'))
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1
+    return result.stderr
+
+
+@pytest.mark.parametrize("keys, fragment", [
+    ("positions = [[1, 2, 3], [4, 5]]", "positions entry 1 is not 3 numbers"),
+    ("positions = [[1, 2, 3], [4, 5, true]]", "positions entry 1 is not 3 numbers"),
+    ("positions = [[1, 2, 3]]\nquaternions = [[1, 0, 0, 0], [1, 0, 0, 0]]", "quaternions has 2 entries but"),
+    ("positions = [[1, 2, 3]]\nquaternions = [[0, 0, 0, 0]]", "entry 0: a quaternion of zero length"),
+    ("quaternions = [[1, 0, 0, 0]]", "quaternions needs positions"),
+    ("positions = [[1, 2, 3]]\nposition = [1, 2, 3]", "not both"),
+    ('positions = [[1, 2, 3]]\ninstances = "x.csv"', "not both"),
+    ('instances = "missing.csv"', "cannot read the instances file"),
+])
+def test_bad_inline_instances_say_what(tmp_path, runner, keys, fragment):
+    error = _refused(runner, tmp_path, keys)
+    assert "part 'bolts': " in error and fragment in error
+
+
+# -- volume-mesh parts with per-cell densities ---------------------------------------------------------------
+
+def test_volume_mesh_parts_with_density_map_and_field(tmp_path, runner):
+    """A two-material bar (two unit cubes: steel x < 1, aluminium) placed twice, by groups and by a field."""
+    import meshio
+    from test_volume import kuhn_tets
+    steel_rho, aluminium_rho = Fraction(7850), Fraction(2700)
+    points, tets = kuhn_tets([(0, 0, 0), (1, 0, 0)])
+    steel = points[tets].mean(axis=1)[:, 0] < 1
+    tags = np.where(steel, 1, 2)
+    meshio.write(str(tmp_path / "bar.msh"), meshio.Mesh(
+        points, [("tetra", tets)], cell_data={"gmsh:physical": [tags], "gmsh:geometrical": [tags]},
+        field_data={"steel": np.array([1, 3]), "aluminium": np.array([2, 3])}), file_format="gmsh22", binary=False)
+    rho = np.where(steel, float(steel_rho), float(aluminium_rho))
+    meshio.write(str(tmp_path / "bar.vtu"), meshio.Mesh(points, [("tetra", tets)], cell_data={"rho": [rho]}))
+    path = _toml(tmp_path / "bars.toml", f"""
+[parts.mapped]
+mesh = "bar.msh"
+density_map = {{ steel = {float(steel_rho)}, aluminium = {float(aluminium_rho)} }}
+position = [0.0, 0.0, 0.0]
+
+[parts.field]
+mesh = "bar.vtu"
+density_field = "rho"
+position = [0.0, 0.0, 1.0]
+rotation = {{ quaternion = [0.0, 1.0, 0.0, 0.0] }}
+
+[parts.uniform]
+mesh = "bar.msh"
+density = 1000
+position = [5.0, 0.0, 0.0]
+""")
+    obj = _json(runner, path, "--density", "1")
+    assert obj["stats"]["meshes_read"] == 2 and obj["stats"]["meshes_integrated"] == 3
+    mass = steel_rho + aluminium_rho
+    cx = (steel_rho / 2 + aluminium_rho * 3 / 2) / mass
+    shift = steel_rho * (Fraction(1, 2) - cx) ** 2 + aluminium_rho * (Fraction(3, 2) - cx) ** 2
+    expected = np.diag([float(mass / 6), float(mass / 6 + shift), float(mass / 6 + shift)])
+    mapped, field, uniform = obj["parts"]
+    for part in (mapped, field):
+        assert part["mass"] == pytest.approx(float(mass), rel=1e-15)
+        assert np.abs(np.array(part["center_of_mass"]) - [float(cx), 0.5, 0.5]).max() <= 1e-14
+        assert np.abs(np.array(part["inertia_com"]) - expected).max() <= 1e-13 * float(mass)
+    assert uniform["mass"] == pytest.approx(2000.0, rel=1e-15)
+    # The field part is turned half about x and lifted by 1: it sits in y ∈ [-1, 0], z ∈ [0, 1].
+    assert np.abs(np.array(field["center_of_mass_global"]) - [float(cx), -0.5, 0.5]).max() <= 1e-14
+    assert obj["total"]["mass"] == pytest.approx(float(2 * mass + 2000), rel=1e-15)
+
+
+@pytest.mark.parametrize("keys, fragment", [
+    ('density_field = "rho"\ndensity = 3', "give density or density_field, not both"),
+    ('density_map = { steel = "heavy" }', "cannot read density_map"),
+    ('density_field = "rho"', "need a volume mesh"),
+])
+def test_bad_cell_density_keys(tmp_path, runner, keys, fragment):
+    error = _refused(runner, tmp_path, keys)
+    assert "part 'bolts': " in error and fragment in error
+
+
+def test_npy_instances_equal_csv_instances(tmp_path):
+    _write(tmp_path, "block.stl", solids.box(*BOXES["block"]))
+    quats, positions = _random_placements(6, 3)
+    np.save(tmp_path / "blocks.npy", np.column_stack([positions, quats]))
+    np.save(tmp_path / "moved.npy", positions)
+    np.save(tmp_path / "flat.npy", positions.ravel())
+    with open(tmp_path / "blocks.csv", "w") as handle:
+        handle.write("x,y,z,qw,qx,qy,qz\n" + "".join(",".join(map(repr, row)) + "\n"
+                                                   for row in np.column_stack([positions, quats]).tolist()))
+    totals = {}
+    for name in ("blocks.npy", "blocks.csv", "moved.npy"):
+        scene = assembly.load_scene(_toml(tmp_path / "s.toml", f'[parts.b]\nmesh = "block.stl"\ninstances = "{name}"\n'))
+        totals[name] = assembly.compute_scene(scene).total
+    assert np.array_equal(totals["blocks.npy"].inertia_com, totals["blocks.csv"].inertia_com)
+    assert not np.allclose(totals["moved.npy"].inertia_com, totals["blocks.csv"].inertia_com)
+    from massprops.errors import MeshFormatError
+    with pytest.raises(MeshFormatError, match=r"part 'b': an array of shape \(18,\)") as caught:
+        assembly.load_scene(_toml(tmp_path / "s.toml", '[parts.b]\nmesh = "block.stl"\ninstances = "flat.npy"\n'))
+    assert caught.value.path == str(tmp_path / "flat.npy")
+
+
+def test_sample_flange_lists_its_bolts_in_a_csv_file(runner):
+    sample = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "scene", "flange.toml")
+    obj = _json(runner, sample)
+    assert obj["stats"]["instances"] == 9 and obj["stats"]["meshes_integrated"] == 2 and obj["parts"] == []
+    each = _json(runner, sample, "--only", "mass")
+    bolt = mass_properties(os.path.join(os.path.dirname(sample), "bolt.stl"), density=7850, unit="mm").properties
+    plate = mass_properties(os.path.join(os.path.dirname(sample), "plate.stl"), density=2700, unit="mm").properties
+    assert each["total"]["mass"] == pytest.approx(plate.mass + 8 * bolt.mass, rel=1e-15)
+    # Eight bolts on a circle about z: the total's COM is on the z axis.
+    assert np.abs(np.array(obj["total"]["center_of_mass"][:2])).max() <= 1e-15

@@ -81,7 +81,7 @@ def scene_dict(result):
     seen, parts = set(), []
     if request.parts:
         wanted = request.wanted("parts")
-        for part, props in zip(scene.parts, result.parts):
+        for part, props in zip(scene.placed_parts(), result.parts):
             record = result.records[part.mesh]
             first = part.mesh not in seen
             seen.add(part.mesh)
@@ -92,10 +92,10 @@ def scene_dict(result):
     obj = {"scene": scene.path, "unit": request.unit, "parts": parts}
     if result.total is not None:
         records = result.records.values()
-        checks = {"parts": len(result.parts), "meshes": len(result.records),
-                  "shells": sum(result.records[p.mesh].checks.get("shells", 0) for p in scene.parts)}
+        checks = {"parts": result.stats["instances"], "meshes": len(result.records),
+                  "shells": sum(result.records[p.mesh].checks.get("shells", 0) * p.count for p in scene.parts)}
         warnings = tuple(f"{r.key}: {w}" for r in records for w in r.warnings)
-        total = Result(scene.path, result.total, sum(result.records[p.mesh].triangles for p in scene.parts),
+        total = Result(scene.path, result.total, sum(result.records[p.mesh].triangles * p.count for p in scene.parts),
                        checks, warnings, result.elapsed_s)
         obj["total"] = _with_frames({"name": "total", **result_dict(total, only=request.wanted("total"))},
                                     result.total, poses, request)

@@ -29,7 +29,9 @@ _SLASHED = re.compile(rb"/[^ \t\r\n]*")
 def read(path):
     with open(path, "rb") as f:
         text = f.read()
-    mesh = _read_common_layout(text)
+    mesh = _read_plain_layout(text)
+    if mesh is None:
+        mesh = _read_common_layout(text)
     if mesh is None:
         mesh = _read_lines(text.splitlines(), path)
     if mesh.faces.size and mesh.faces.max() >= mesh.vertices.shape[0]:
@@ -38,9 +40,46 @@ def read(path):
 
 
 def _numbers(chunks, dtype):
+    """The numbers in ``chunks`` (whitespace-separated), or an empty array if any is not a number."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        return np.fromstring(b" ".join(chunks), dtype=dtype, sep=" ")
+        try:
+            return np.fromstring(b" ".join(chunks), dtype=dtype, sep=" ")
+        except ValueError:
+            return np.zeros(0, dtype=dtype)
+
+
+def _tagged_numbers(block, tag, dtype):
+    """The numbers of ``block`` if every one of its lines is ``TAG n n n`` (and ``tag`` occurs nowhere else).
+
+    Returns None otherwise.  Deleting the tag bytes leaves a plain list of
+    numbers: a few passes in C instead of a regular expression per line.
+    """
+    block = block.rstrip()
+    lines = block.count(b"\n") + 1
+    if not block.startswith(tag + b" ") or block.count(b"\n" + tag + b" ") + 1 != lines \
+            or block.count(tag) != lines:
+        return None
+    numbers = _numbers([block.translate(None, tag)], dtype)
+    return numbers if numbers.size == 3 * lines else None
+
+
+def _read_plain_layout(text):
+    """The plainest layout (optional comment lines, then only ``v x y z``, then only ``f i j k``), or None."""
+    first_face = text.find(b"\nf ") + 1
+    first_vertex = 0 if text.startswith(b"v ") else text.find(b"\nv ") + 1
+    if not first_face or (not first_vertex and not text.startswith(b"v ")) or first_vertex > first_face:
+        return None
+    if any(line.lstrip()[:1] in (b"v", b"f") for line in text[:first_vertex].splitlines()):
+        return None
+    faces_text = text[first_face:]
+    if b"/" in faces_text:
+        return None
+    coordinates = _tagged_numbers(text[first_vertex:first_face], b"v", np.float64)
+    faces = None if coordinates is None else _tagged_numbers(faces_text, b"f", np.int64)
+    if faces is None or faces.min() < 1:
+        return None
+    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
 
 
 def _read_common_layout(text):
