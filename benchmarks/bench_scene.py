@@ -190,7 +190,7 @@ def _agreement(a, b):
 
 def run(quick: bool = False) -> str:
     _meshes()
-    sample, repeat = (10, 2) if quick else (100, 3)
+    sample, repeat = (10, 2) if quick else (100, 5)
     loops, rows, ours = {}, [], {}
     for count in (10, 10_000):
         loops[count] = _trimesh_loop(None, count, min(sample, count))[3] * count / min(sample, count)

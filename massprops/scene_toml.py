@@ -172,7 +172,7 @@ def _placements(spec, folder):
         if len(compact) > 1:
             raise MeshFormatError(f"give instances = \"FILE.csv\" or {compact[1]}, not both")
         if not isinstance(spec["instances"], str) or not spec["instances"]:
-            raise MeshFormatError("instances must be a CSV file name", fix=_CSV_FIX)
+            raise MeshFormatError("instances must name a .csv or .npy file", fix=_CSV_FIX)
         return read_instances(os.path.normpath(os.path.join(folder, spec["instances"])))
     if "positions" not in spec:
         raise MeshFormatError(f"{compact[0]} needs positions = [[x, y, z], ...]")
