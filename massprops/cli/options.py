@@ -56,6 +56,19 @@ def format_option(*choices):
     return decorate
 
 
+def parse_only(text):
+    """The set of quantities named by ``--only a,b,c`` (None when not given); unknown ones are usage errors."""
+    from ..compute import QUANTITIES
+    if text is None:
+        return None
+    wanted = [w.strip() for w in text.split(",") if w.strip()]
+    unknown = [w for w in wanted if w not in QUANTITIES]
+    if unknown:
+        raise click.BadParameter(f"unknown quantity {unknown[0]!r}; pick from {', '.join(QUANTITIES)}",
+                                 param_hint="--only")
+    return set(wanted)
+
+
 def pose_from_options(rotate, translate):
     """Build the Pose the options describe (raises OptionError)."""
     return _pose_from(rotate, translate)

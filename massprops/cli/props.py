@@ -17,18 +17,6 @@ def _parse_point(text):
     return values
 
 
-def _parse_only(text):
-    from ..compute import QUANTITIES
-    if text is None:
-        return None
-    wanted = [w.strip() for w in text.split(",") if w.strip()]
-    unknown = [w for w in wanted if w not in QUANTITIES]
-    if unknown:
-        raise click.BadParameter(f"unknown quantity {unknown[0]!r}; pick from {', '.join(QUANTITIES)}",
-                                 param_hint="--only")
-    return set(wanted)
-
-
 def _density_map(ctx, param, text):
     if text is None:
         return None                 # before the import: plain `props` stays light at start-up
@@ -72,7 +60,7 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     from ..compute import mass_properties
 
     about_points = [_parse_point(a) for a in about]
-    wanted = _parse_only(only)
+    wanted = options.parse_only(only)
     if omega is not None and wanted is not None:
         wanted |= {"inertia"}
     pose = options.guarded(options.pose_from_options, rotate, translate)

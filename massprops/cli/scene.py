@@ -31,9 +31,8 @@ def scene(scene_file, density, unit, only, repair, output_format):
     part that cannot be computed stops the run with exit 1.
     """
     from .. import scene as assembly
-    from .props import _parse_only
 
-    wanted = _parse_only(only)
+    wanted = options.parse_only(only)
     loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, path=scene_file)
     if loaded is not None and wanted is not None:
         principal = frozenset({"total", "parts"}) if "principal" in wanted else frozenset()
