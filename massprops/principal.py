@@ -181,5 +181,5 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
     a2 = _canonical_sign(axes[1] - (a1 @ axes[1]) * a1)
     a2 /= np.linalg.norm(a2)
     a3 = np.cross(a1, a2)
-    return Principal(moments, np.array([a1, a2, a3]), tuple(tuple(g) for g in groups),
+    return Principal(moments, np.array([a1, a2, a3]) + 0.0, tuple(tuple(g) for g in groups),
                      moments_error, tolerance, axis_angle_bounds(moments, moments_error, groups))
