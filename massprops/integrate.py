@@ -144,34 +144,20 @@ def _two_product(x, y):
     return p, ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
 
 
-# The six terms of det[a b c] = Σ sign · a_i b_j c_k, over the permutations (i, j, k).
-_PERMUTATIONS = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1], [0, 2, 1], [1, 0, 2], [2, 1, 0]])
-_SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
-_REFINE_BLOCK = 512                       # faces per pass: the (6, k) temporaries stay in cache
-
-
 def _refined_det(a, b, c):
     """det[a b c] per row from error-free triple products summed in double-double.
 
-    The products of all six permutations are formed at once (arrays (6, k)),
-    then summed term by term in the order q, qe, r, re of each permutation.
-    Rows are permutations, columns faces (contiguous per term).
-
     Returns the determinant and an absolute bound on its error.
     """
-    if a.shape[0] > _REFINE_BLOCK:
-        parts = [_refined_det(a[s:s + _REFINE_BLOCK], b[s:s + _REFINE_BLOCK], c[s:s + _REFINE_BLOCK])
-                 for s in range(0, a.shape[0], _REFINE_BLOCK)]
-        return np.concatenate([det for det, _ in parts]), np.concatenate([bound for _, bound in parts])
-    i, j, k = _PERMUTATIONS.T
-    signed_c = c.T[k] * _SIGNS[:, None]                  # exact: a sign flip
-    p, pe = _two_product(a.T[i], b.T[j])
-    q, qe = _two_product(p, signed_c)
-    r, re = _two_product(pe, signed_c)
-    terms = np.stack([q, qe, r, re], axis=1).reshape(24, -1)     # permutation-major rows
+    terms = []
     permanent = np.zeros(a.shape[0])
-    for row in np.abs(q):
-        permanent += row
+    for (i, j, k), sign in (((0, 1, 2), 1.0), ((1, 2, 0), 1.0), ((2, 0, 1), 1.0),
+                            ((0, 2, 1), -1.0), ((1, 0, 2), -1.0), ((2, 1, 0), -1.0)):
+        p, pe = _two_product(a[:, i], b[:, j])
+        q, qe = _two_product(p, sign * c[:, k])
+        r, re = _two_product(pe, sign * c[:, k])
+        terms += [q, qe, r, re]
+        permanent += np.abs(q)
     hi = np.zeros(a.shape[0])
     lo = np.zeros(a.shape[0])
     for term in terms:

@@ -60,7 +60,11 @@ def _tagged_numbers(block, tag, dtype):
     if not block.startswith(tag + b" ") or block.count(b"\n" + tag + b" ") + 1 != lines \
             or block.count(tag) != lines:
         return None
-    numbers = _numbers([block.translate(None, tag)], dtype)
+    from .decimals import parse_decimals          # only when an OBJ is read: keeps startup light
+    block = block.translate(None, tag)
+    numbers = parse_decimals(block) if dtype == np.float64 else None
+    if numbers is None:
+        numbers = _numbers([block], dtype)
     return numbers if numbers.size == 3 * lines else None
 
 
