@@ -67,8 +67,11 @@ def test_decimals_near_midpoints_and_declines():
 def test_plain_obj_layout_matches_line_reader(points, seed, newline, comment, fmt):
     rng = np.random.default_rng(seed)
     faces = rng.integers(0, len(points), size=(int(rng.integers(1, 20)), 3))
-    lines = (["# exported"] if comment else []) + ["v " + " ".join(fmt % c for c in p) for p in points]
-    lines += ["f %d %d %d" % tuple(f + 1) for f in faces]
+    corner = ["%d", "%d/1", "%d/1/2", "%d//2"]
+    lines = (["# exported", "o part"] if comment else []) + ["v " + " ".join(fmt % c for c in p) for p in points]
+    lines += ["vt 0 0", "vn 0 0 1", "s off"] if seed % 3 == 0 else []
+    lines += ["f " + " ".join(corner[(seed >> (2 * k + 2 * i)) % 4 if seed % 5 else 0] % (v + 1)
+                             for k, v in enumerate(f)) for i, f in enumerate(faces)]
     text = newline.join(lines).encode() + (newline.encode() if seed % 2 else b"")
     fast = obj._read_plain_layout(text)
     slow = obj._read_lines(text.splitlines(), "x.obj")
@@ -79,10 +82,10 @@ def test_plain_obj_layout_matches_line_reader(points, seed, newline, comment, fm
 
 def test_plain_obj_layout_declines_other_layouts():
     base = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
-    for text in (base + "f 1 2 3 3\n", base + "f 1/1 2/2 3/3\n", base + "vn 0 0 1\nf 1 2 3\n",
+    for text in (base + "f 1 2 3 3\n", base + "f 1/ 2/2 3/3\n", base + "f /1 2 3\n", base + "  v 1 1 1\nf 1 2 3\n",
                  base + "f 1 2 3\nv 0 0 1\n", base + "f -1 -2 -3\n", base + "f 0 1 2\n",
                  "v 0 0 0 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "v 0 0 0\nv 1v 0 0\nv 0 1 0\nf 1 2 3\n",
-                 base + "f 1 2 x\n", base + "g part\nf 1 2 3\n"):
+                 base + "f 1 2 x\n", base + "f 1 2 3\ng part\nf 1 2 3\n"):
         assert obj._read_plain_layout(text.encode()) is None, text
 
 

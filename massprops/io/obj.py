@@ -5,9 +5,12 @@ decimal conversion), names a bad face index with its line, and avoids
 importing trimesh.  Indices may be negative (relative) and carry ``/vt/vn``
 parts, which are ignored.
 
-Files in the common layout — all vertices before all faces, triangles with
-positive indices — are parsed with regular expressions and numpy in a few
-passes; anything else goes through the line-by-line reader.
+Three readers, fastest first, each declining what it cannot read exactly:
+the plain layout (``v`` lines, other lines, then only triangle ``f`` lines,
+as exporters write them) is cut into blocks with byte operations and its
+decimals converted by :mod:`massprops.io.decimals`; the common layout (all
+vertices before all faces, triangles with positive indices) by regular
+expressions and numpy; anything else line by line.
 """
 
 from __future__ import annotations
@@ -69,21 +72,59 @@ def _tagged_numbers(block, tag, dtype):
 
 
 def _read_plain_layout(text):
-    """The plainest layout (optional comment lines, then only ``v x y z``, then only ``f i j k``), or None."""
+    """Comment lines, ``v x y z`` lines, other lines (``vt``, ``vn``, ``s``, ...), then only ``f`` lines; or None.
+
+    Faces are triangles with positive indices, corners as ``i``, ``i/t``,
+    ``i/t/n`` or ``i//n``.  Other layouts (interleaved, polygons, groups
+    between faces, indented lines) return None.
+    """
     first_face = text.find(b"\nf ") + 1
     first_vertex = 0 if text.startswith(b"v ") else text.find(b"\nv ") + 1
     if not first_face or (not first_vertex and not text.startswith(b"v ")) or first_vertex > first_face:
         return None
-    if any(line.lstrip()[:1] in (b"v", b"f") for line in text[:first_vertex].splitlines()):
+    vertex_end = text.find(b"\n", text.rfind(b"\nv ") + 1) + 1
+    if not 0 < vertex_end <= first_face:
         return None
-    faces_text = text[first_face:]
-    if b"/" in faces_text:
-        return None
-    coordinates = _tagged_numbers(text[first_vertex:first_face], b"v", np.float64)
-    faces = None if coordinates is None else _tagged_numbers(faces_text, b"f", np.int64)
+    for other in (b"\n" + text[:first_vertex], b"\n" + text[vertex_end:first_face]):
+        # no further vertex or face lines (also not indented or tab-separated) outside the two blocks
+        if any(mark in other for mark in (b"\nv\t", b"\nf", b"\n ", b"\n\t")) or other.count(b"\nv ") > 0:
+            return None
+    coordinates = _tagged_numbers(text[first_vertex:vertex_end], b"v", np.float64)
+    faces = None if coordinates is None else _face_corners(text[first_face:])
     if faces is None or faces.min() < 1:
         return None
     return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
+
+
+def _face_corners(block):
+    """The vertex numbers (1-based) of ``f`` lines of three corners each, or None.
+
+    Corners may carry ``/t``, ``/t/n`` or ``//n``: slashes become spaces and
+    the first integer of each corner is kept, located by counting the
+    corner's slashes (an empty field other than ``//`` breaks the count, and
+    the block is declined).
+    """
+    if b"/" not in block:
+        return _tagged_numbers(block, b"f", np.int64)
+    block = block.rstrip()
+    lines = block.count(b"\n") + 1
+    if not block.startswith(b"f ") or block.count(b"\nf ") + 1 != lines or block.count(b"f") != lines:
+        return None
+    block = block.translate(None, b"f")
+    buf = np.frombuffer(block, dtype=np.uint8)
+    slash = buf == ord("/")
+    edges = np.diff((buf > 32).view(np.int8), prepend=np.int8(0), append=np.int8(0))
+    starts = np.flatnonzero(edges == 1)
+    if starts.size != 3 * lines or slash[starts].any():
+        return None
+    fields = 1 + np.bincount(np.searchsorted(starts, np.flatnonzero(slash), side="right") - 1,
+                             minlength=starts.size)
+    doubled = np.flatnonzero(slash[:-1] & slash[1:])
+    fields -= np.bincount(np.searchsorted(starts, doubled, side="right") - 1, minlength=starts.size)
+    numbers = _numbers([block.replace(b"/", b" ")], np.int64)
+    if numbers.size != fields.sum():
+        return None
+    return numbers[np.cumsum(fields) - fields]
 
 
 def _read_common_layout(text):
