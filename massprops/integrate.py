@@ -33,13 +33,14 @@ from fractions import Fraction
 
 import numpy as np
 
+from .integrate_dd import det_double_double, integrate_double_double
+
 __all__ = ["Moments", "reference_frame", "integrate"]
 
 U = 2.0 ** -53
 _DET_BOUND = (7.0 + 56.0 * U) * U          # Shewchuk's o3derrboundA
 _REFINE_ABOVE = 64.0 * U                   # relative det bound that sends a face to the slow path
 _CHUNK = 1 << 14                           # faces per chunk: fewer GIL hand-overs, workspace near L2
-_SPLITTER = 134217729.0                    # 2**27 + 1, Dekker's split
 
 
 def _gamma(k):
@@ -133,38 +134,12 @@ def reference_frame(vertices):
     return reference, scale_exp
 
 
-def _two_product(x, y):
-    p = x * y
-    t = _SPLITTER * x
-    xh = t - (t - x)
-    xl = x - xh
-    t = _SPLITTER * y
-    yh = t - (t - y)
-    yl = y - yh
-    return p, ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
-
-
 def _refined_det(a, b, c):
     """det[a b c] per row from error-free triple products summed in double-double.
 
     Returns the determinant and an absolute bound on its error.
     """
-    terms = []
-    permanent = np.zeros(a.shape[0])
-    for (i, j, k), sign in (((0, 1, 2), 1.0), ((1, 2, 0), 1.0), ((2, 0, 1), 1.0),
-                            ((0, 2, 1), -1.0), ((1, 0, 2), -1.0), ((2, 1, 0), -1.0)):
-        p, pe = _two_product(a[:, i], b[:, j])
-        q, qe = _two_product(p, sign * c[:, k])
-        r, re = _two_product(pe, sign * c[:, k])
-        terms += [q, qe, r, re]
-        permanent += np.abs(q)
-    hi = np.zeros(a.shape[0])
-    lo = np.zeros(a.shape[0])
-    for term in terms:
-        s = hi + term
-        bb = s - hi
-        lo += (hi - (s - bb)) + (term - bb)
-        hi = s
+    (hi, lo), permanent = det_double_double(a, b, c)
     det = hi + lo
     # Each of the 24 terms is exact; the TwoSum chain is exact but for the
     # accumulation of `lo` (≤ 24 roundings of quantities ≤ u·|partial sums|).
@@ -363,7 +338,6 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="
                                            + (1 + _gamma(9)) * bound_sum)
     if measure == "volume" and abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
         # The tetrahedra cancel heavily: redo the sums (weighted or not) in double-double.
-        from .integrate_dd import integrate_double_double
         dd = integrate_double_double(scaled, faces, order, weights=weights)
         det_sum, det_error = dd["det_sum"], dd["det_error"]
         first, first_error = dd.get("first", first), dd.get("first_error", first_error)

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-__all__ = ["integrate_double_double"]
+__all__ = ["integrate_double_double", "det_double_double"]
 
 U = 2.0 ** -53
 _SPLITTER = 134217729.0
@@ -55,7 +55,7 @@ def dd_mul(x, y):
     return _fast_two_sum(p, e + (x[0] * y[1] + x[1] * y[0]))
 
 
-def _det_dd(a, b, c):
+def det_double_double(a, b, c):
     """det[a b c] as a double-double from 24 error-free terms; and the permanent."""
     hi = np.zeros(a.shape[0])
     lo = np.zeros(a.shape[0])
@@ -75,7 +75,7 @@ _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 def _chunk_terms(a, b, c, order, weights=None):
     """Double-double terms of one chunk: lists of (hi, lo) arrays per sum."""
-    det, permanent = _det_dd(a, b, c)
+    det, permanent = det_double_double(a, b, c)
     if weights is not None:
         det = dd_mul(det, (weights, np.zeros_like(weights)))
         permanent = permanent * np.abs(weights)

@@ -117,7 +117,7 @@ def _convert(mantissa, exponent):
 
     ``mantissa`` is int64 (-1: unknown).
     """
-    from ..integrate import _two_product
+    from ..integrate_dd import two_prod
 
     mantissa_hi = mantissa.astype(np.float64)              # correctly rounded (exact up to 2**53)
     power = _POW10[np.minimum(np.abs(exponent), 22)]
@@ -125,7 +125,7 @@ def _convert(mantissa, exponent):
     done = (mantissa >= 0) & (((mantissa <= 2 ** 53) & (np.abs(exponent) <= 22)) | (exponent == 0))
     wide = np.flatnonzero((mantissa > 2 ** 53) & (exponent < 0) & (exponent >= -22))
     if wide.size:
-        done[wide], values[wide] = _quotient(mantissa[wide], mantissa_hi[wide], power[wide], _two_product)
+        done[wide], values[wide] = _quotient(mantissa[wide], mantissa_hi[wide], power[wide], two_prod)
     return values, done
 
 
