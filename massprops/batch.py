@@ -45,11 +45,15 @@ class Settings:
     unit: str | None = None
     pose: Pose | None = None
     repair: bool = False
+    density_field: str | None = None
+    density_map: dict | None = None
+    shell: float | None = None
 
     def key(self):
         """A JSON-able description; a resumed report is reused only if this matches."""
         pose = self.pose or Pose()
         return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
+                "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
                 "rotation": [repr(float(x)) for x in pose.rotation.ravel()],
                 "translation": [repr(float(x)) for x in pose.translation]}
 
@@ -187,7 +191,8 @@ def run_one(path, settings=Settings(), output_format="csv"):
             raise MeshReadError("is a directory holding no mesh files", path=path,
                                 fix="pass --recursive to search its sub-directories, or name the files")
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
-                                 pose=settings.pose, repair=settings.repair)
+                                 pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
+                                 density_map=settings.density_map, shell=settings.shell)
         obj = report.result_dict(result)
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
     except Exception as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on

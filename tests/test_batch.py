@@ -304,3 +304,30 @@ def test_error_messages_are_one_csv_line_that_reads_back(text):
     row = next(csv.DictReader([SPEC_HEADER + "\n", line]))
     assert (row["file"], row["status"], row["message"]) == ("a,b.stl", "error", message)
     assert message.endswith('— fix, "it" now')
+
+
+def test_volume_and_shell_options_reach_every_file(runner, tmp_path):
+    """--density-field for volume meshes and --shell for open surfaces, as in props."""
+    import meshio
+
+    from massprops import solids
+
+    points = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1, 2)], float)
+    cells = [[i, i + 1, i + 4, i + 3, i + 6, i + 7, i + 10, i + 9] for i in (0, 1)]
+    meshio.write(tmp_path / "bar.vtu", meshio.Mesh(points, [("hexahedron", np.array(cells))],
+                                                   cell_data={"rho": [np.array([7850.0, 2700.0])]}))
+    out = tmp_path / "bars.csv"
+    assert _invoke(runner, tmp_path / "bar.vtu", "-o", out, "--density-field", "rho").exit_code == 0
+    [row] = _read_report(out)[1]
+    assert float(row["mass"]) == 10550.0
+    assert float(row["cx"]) == pytest.approx((7850 * 0.5 + 2700 * 1.5) / 10550, rel=1e-15)
+
+    box = solids.box((2.0, 1.0, 1.0), (1.0, 0.5, 0.5))
+    open_faces = box.faces[[not np.all(box.vertices[f][:, 2] == 1.0) for f in box.faces]]
+    from massprops.io.stl import write_binary
+    write_binary(tmp_path / "tray.stl", box.vertices[open_faces])
+    out = tmp_path / "trays.csv"
+    assert _invoke(runner, tmp_path / "tray.stl", "-o", out).exit_code == 1
+    assert _invoke(runner, tmp_path / "tray.stl", "-o", out, "--shell", "0.5").exit_code == 0
+    [row] = _read_report(out)[1]
+    assert float(row["mass"]) == pytest.approx(0.5 * (2 + 2 * 2 + 2 * 1), rel=1e-15)   # t · area of the open box

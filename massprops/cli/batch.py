@@ -68,9 +68,10 @@ def _summary_line(summary):
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar, failure list or summary line.")
 @options.material_options
 @options.pose_options
+@options.cell_options
 @options.repair_option
 def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, density, total_mass, unit,
-          rotate, translate, repair):
+          rotate, translate, density_field, density_map, shell, repair):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
@@ -93,7 +94,8 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     except MassPropsError as exc:
         raise click.BadParameter(str(exc), param_hint="PATH") from None
     pose = options.guarded(options.pose_from_options, rotate, translate)
-    settings = pose and batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair)
+    settings = pose and batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
+                                           density_field=density_field, density_map=density_map, shell=shell)
     if settings is None or not options.guarded(batch_lib.check_settings, settings):
         raise SystemExit(1)
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet)

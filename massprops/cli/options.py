@@ -44,6 +44,29 @@ def pose_options(f):
     return f
 
 
+def _density_map(ctx, param, text):
+    if text is None:
+        return None                 # before the import: plain `props` stays light at start-up
+    from ..errors import OptionError
+    from ..volume import parse_density_map
+    try:
+        return parse_density_map(text)
+    except OptionError as exc:
+        raise click.BadParameter(str(exc), param_hint="--density-map") from None
+
+
+def cell_options(f):
+    """--density-field / --density-map (volume meshes) and --shell (surfaces as sheets)."""
+    f = click.option("--shell", type=float, metavar="THICKNESS",
+                     help="Treat the surface (open or closed) as a sheet of this thickness in mesh units: "
+                          "area density = density × THICKNESS.")(f)
+    f = click.option("--density-map", metavar="GROUP=VALUE,...", callback=_density_map,
+                     help="Volume meshes: density per physical group / cell set (--density fills the other cells).")(f)
+    f = click.option("--density-field", metavar="NAME",
+                     help="Volume meshes: per-cell density from the cell-data array NAME.")(f)
+    return f
+
+
 def repair_option(f):
     return click.option("--repair", is_flag=True,
                         help="Fix winding, remove duplicate faces, close small holes, and say what changed.")(f)

@@ -17,17 +17,6 @@ def _parse_point(text):
     return values
 
 
-def _density_map(ctx, param, text):
-    if text is None:
-        return None                 # before the import: plain `props` stays light at start-up
-    from ..errors import OptionError
-    from ..volume import parse_density_map
-    try:
-        return parse_density_map(text)
-    except OptionError as exc:
-        raise click.BadParameter(str(exc), param_hint="--density-map") from None
-
-
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=True))
 @options.material_options
@@ -39,13 +28,7 @@ def _density_map(ctx, param, text):
 @click.option("--only", "only", metavar="LIST",
               help="Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal.")
 @click.option("--check-trimesh", is_flag=True, help="Also compute with trimesh and report the relative differences.")
-@click.option("--density-field", metavar="NAME",
-              help="Volume meshes: per-cell density from the cell-data array NAME.")
-@click.option("--density-map", metavar="GROUP=VALUE,...", callback=_density_map,
-              help="Volume meshes: density per physical group / cell set (--density fills the other cells).")
-@click.option("--shell", type=float, metavar="THICKNESS",
-              help="Treat the surface (open or closed) as a sheet of this thickness in mesh units: "
-                   "area density = density × THICKNESS.")
+@options.cell_options
 @options.repair_option
 @options.format_option("text", "json", "csv")
 def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
