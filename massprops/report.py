@@ -33,6 +33,9 @@ def _plain(value):
     return value
 
 
+_ERROR_OF = {"principal_axes_rad": "principal_axes"}
+
+
 def result_dict(result, *, omega=None, about=(), only=None, extra=None):
     """The SPEC's JSON object for one :class:`massprops.compute.Result`.
 
@@ -82,7 +85,9 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
         from dataclasses import replace
         error = replace(error, principal_moments=p.principal.moments_error,
                         principal_axes_rad=p.principal.axes_error)
-    out["error"] = error.as_dict()
+    # Bounds only for what was computed (volume and mass always are).
+    out["error"] = {key: bound for key, bound in error.as_dict().items()
+                    if _ERROR_OF.get(key, key) in out or key in ("volume", "mass", "input_resolution")}
     out["pose"] = {"rotation": p.pose.rotation, "translation": p.pose.translation}
     out["checks"] = result.checks
     out["warnings"] = list(result.warnings)
