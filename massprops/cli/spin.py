@@ -57,6 +57,10 @@ def plot_trajectory(path, trajectory, title):
         panel.grid(True, alpha=0.3)
     panels[2].set_xlabel("t [s]")
     figure.suptitle(title)
+    return _save(plt, figure, path)
+
+
+def _save(plt, figure, path):
     figure.tight_layout()
     try:
         with _writable(path):
@@ -78,13 +82,7 @@ def plot_work_precision(path, rows, title):
     panel.grid(True, which="major", alpha=0.3)
     panel.legend(fontsize=8)
     panel.set_title(title)
-    figure.tight_layout()
-    try:
-        with _writable(path):
-            figure.savefig(path, dpi=110)
-    finally:
-        plt.close(figure)
-    return path
+    return _save(plt, figure, path)
 
 
 def summary(trajectory, torque, torque_frame, exact):
