@@ -37,7 +37,7 @@ def material_options(f):
 def pose_options(f):
     """--rotate / --translate, giving the part's pose (x = A x' + t)."""
     f = click.option("--translate", type=float, nargs=3, default=None, metavar="X Y Z",
-                     help="Translation t of the pose.")(f)
+                     help="Translation t of the pose, in mesh units.")(f)
     f = click.option("--rotate", metavar="ROTATION",
                      help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
                           "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
