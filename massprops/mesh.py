@@ -353,9 +353,14 @@ def _refuse_non_finite(vertices, faces, path):
             fix="re-export the mesh; non-finite coordinates cannot be repaired")
 
 
+def distinct_faces(faces):
+    """Indices (ascending) of the first face of each set of vertices: duplicates left out."""
+    _, first = group_ids(np.sort(faces, axis=1).astype(np.uint64))
+    return np.sort(first)
+
+
 def _duplicate_faces(faces):
-    labels, first = group_ids(np.sort(faces, axis=1).astype(np.uint64))
-    return faces.shape[0] - first.size
+    return faces.shape[0] - distinct_faces(faces).size
 
 
 def _refuse_unbalanced(faces, uses, balance, path):

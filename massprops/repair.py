@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import TriangleMesh, group_ids
+from .mesh import TriangleMesh, distinct_faces
 
 __all__ = ["repair_mesh"]
 
@@ -25,10 +25,10 @@ def repair_mesh(mesh):
 
     changes = []
     faces = mesh.faces
-    _, first = group_ids(np.sort(faces, axis=1).astype(np.uint64))
-    if first.size < faces.shape[0]:
-        changes.append(f"removed {faces.shape[0] - first.size} duplicated faces")
-        faces = faces[np.sort(first)]
+    keep = distinct_faces(faces)
+    if keep.size < faces.shape[0]:
+        changes.append(f"removed {faces.shape[0] - keep.size} duplicated faces")
+        faces = faces[keep]
     tm = trimesh.Trimesh(mesh.vertices, faces, process=False, validate=False)
     before = tm.faces.copy()
     trimesh.repair.fix_winding(tm)

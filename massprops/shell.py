@@ -27,7 +27,7 @@ import numpy as np
 
 from .errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
 from .integrate import U, integrate
-from .mesh import TriangleMesh, _edge_balance, check_mesh, face_components, group_ids
+from .mesh import TriangleMesh, _edge_balance, check_mesh, distinct_faces, face_components
 from .properties import MassProperties
 
 __all__ = ["shell_moments", "shell_mass_properties"]
@@ -65,15 +65,14 @@ def shell_moments(vertices, faces, thickness, *, order=2):
 
 def _without_duplicates(mesh, repair, path):
     """Refuse faces listed twice (they would count twice), or drop them under ``repair``."""
-    _, first = group_ids(np.sort(mesh.faces, axis=1).astype(np.uint64))
-    duplicates = mesh.faces.shape[0] - first.size
+    keep = distinct_faces(mesh.faces)
+    duplicates = mesh.faces.shape[0] - keep.size
     if not duplicates:
         return mesh, []
     if not repair:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
                             fix="remove the duplicates, or pass --repair")
-    faces = mesh.faces[np.sort(first)]
-    return TriangleMesh(mesh.vertices, faces, mesh.source_dtype), [f"removed {duplicates} duplicated faces"]
+    return TriangleMesh(mesh.vertices, mesh.faces[keep], mesh.source_dtype), [f"removed {duplicates} duplicated faces"]
 
 
 def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None, pose=None, repair=False,
