@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 from . import integrate as _integrate
 from .errors import MassPropsError, OptionError
@@ -162,4 +163,10 @@ def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair)
     warnings += trust_warnings
     return Result(file=path or "<mesh>", properties=props, triangles=int(mesh.faces.shape[0]),
                   checks=check_dict, warnings=tuple(warnings), elapsed_s=time.perf_counter() - start,
-                  source_dtype=str(mesh.source_dtype))
+                  source_dtype=_dtype_text(mesh.source_dtype))
+
+
+@lru_cache(maxsize=None)
+def _dtype_text(dtype):
+    # str() of a numpy dtype takes microseconds, and a batch asks it of the same one or two dtypes every file
+    return str(dtype)

@@ -7,6 +7,11 @@ Each face (a, b, c) and the reference point span a tetrahedron of signed volume
     ∫ x dV     = Σ det · s / 24
     ∫ x xᵀ dV  = Σ det · (s sᵀ + a aᵀ + b bᵀ + c cᵀ) / 120
 
+With the pairs ``u = a + b, b + c, c + a``, ``Σ u = 2 s`` and ``Σ u uᵀ = s sᵀ +
+a aᵀ + b bᵀ + c cᵀ``: the kernel forms ``det·u`` and ``det·u_i·u_j`` (three
+points, not four, each with fewer roundings) and lets the sums over faces and
+pairs do the rest.
+
 Numerics (the reasons for every step below):
 
 * Coordinates are first shifted to a reference point near the part and divided
@@ -14,12 +19,14 @@ Numerics (the reasons for every step below):
   the origin or at any scale integrates like a unit part at the origin.
 * ``det`` is evaluated as ``a · ((b − a) × (c − a))`` with Shewchuk's a-priori
   bound ``(7u + 56u²) · permanent``.  Faces whose bound exceeds ``64 u |det|``
-  (needles, plates, slivers seen edge-on) are re-evaluated from error-free
-  products in double-double; faces even that cannot certify fall back to exact
-  rationals.  Ordinary faces keep the fast path.
+  (needles, plates, slivers seen edge-on) are first re-evaluated from a
+  rotation of their corners (a sliver's cross product cancels at one corner,
+  not at all), then from error-free products in double-double; faces even
+  that cannot certify fall back to exact rationals.  Ordinary faces keep the
+  fast path.
 * Sums are pairwise (numpy's reduction along a contiguous axis) inside chunks
-  and exact (``math.fsum``) across chunks, so the rounding bound grows with
-  log(n), not n.
+  and exact (``math.fsum``) across chunks and pairs, so the rounding bound
+  grows with log(n), not n.
 
 The returned bounds are absolute bounds on the error of each sum with respect
 to exact arithmetic on the coordinates as given.
@@ -33,14 +40,14 @@ from fractions import Fraction
 
 import numpy as np
 
-from .integrate_dd import det_double_double, integrate_double_double
+from .integrate_dd import DET_ERROR, det_double_double, integrate_double_double
 
 __all__ = ["Moments", "reference_frame", "integrate"]
 
 U = 2.0 ** -53
 _DET_BOUND = (7.0 + 56.0 * U) * U          # Shewchuk's o3derrboundA
 _REFINE_ABOVE = 64.0 * U                   # relative det bound that sends a face to the slow path
-_CHUNK = 1 << 14                           # faces per chunk: fewer GIL hand-overs, workspace near L2
+_CHUNK = 1 << 14                           # faces per chunk: few GIL hand-overs, two workspaces fit in L3
 
 
 def _gamma(k):
@@ -126,12 +133,23 @@ def reference_frame(vertices):
     axes = np.asarray(vertices).T          # per-axis reductions: much faster on contiguous rows
     if not axes.flags.c_contiguous:
         axes = np.ascontiguousarray(axes)
+    reference, scale_exp, _ = _frame(axes)
+    return reference, scale_exp
+
+
+def _frame(axes):
+    """reference_frame of coordinates given as contiguous rows (3, n), and the scaled radius.
+
+    The radius ``max |x − reference| · 2**-scale_exp`` is exact: it comes from
+    the bounding box, whose differences from the reference are exact too.
+    """
     low = axes.min(axis=1)
     high = axes.max(axis=1)
     reference = np.array([_reference_coordinate(float(lo), float(hi)) for lo, hi in zip(low, high)])
     largest = float((high - low).max())
     scale_exp = _ceil_log2(largest) if largest > 0 else 0
-    return reference, scale_exp
+    radius = float(np.maximum(np.abs(high - reference), np.abs(low - reference)).max())
+    return reference, scale_exp, math.ldexp(radius, -scale_exp)
 
 
 def _refined_det(a, b, c):
@@ -141,9 +159,8 @@ def _refined_det(a, b, c):
     """
     (hi, lo), permanent = det_double_double(a, b, c)
     det = hi + lo
-    # Each of the 24 terms is exact; the TwoSum chain is exact but for the
-    # accumulation of `lo` (≤ 24 roundings of quantities ≤ u·|partial sums|).
-    bound = U * np.abs(det) + 2.0 * _gamma(24) * U * (1.0 + 4.0 * U) * permanent
+    # hi + lo is within DET_ERROR·permanent of det; rounding it to a double adds u|det|.
+    bound = U * np.abs(det) + DET_ERROR * permanent
     return det, bound
 
 
@@ -153,19 +170,37 @@ def _exact_det(a, b, c):
     return float(a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0))
 
 
-# Rows of the per-chunk workspace (each row holds one value per face).  Edge
-# vectors and points carry two extra rows repeating x and y, so that the
-# cyclic shifts (y, z, x) and (z, x, y) are plain contiguous slices.
-_A, _B, _C, _S = 0, 5, 10, 15             # corners a, b, c and s = a + b + c: 5 rows each
-_E1, _E2 = 20, 25                         # b − a and c − a: 5 rows each
-_P, _Q, _N, _T = 30, 33, 36, 39           # the cross product's two halves, the normal, scratch: 3 rows each
-_DET, _ABS, _BOUND, _AREA = 42, 43, 44, 45
-_FIRST, _SECOND = 46, 49                  # det·s (3 rows) and the six second-moment terms
-_ROWS = 55
-_SUMMED = {0: slice(_DET, _FIRST), 1: slice(_DET, _SECOND), 2: slice(_DET, _ROWS)}
+# The per-chunk workspace: named blocks of rows (one value per face in each row),
+# carved from one flat buffer so every view is contiguous whatever the chunk's
+# length.  Whole blocks go through each numpy call: a chunk takes ~30 calls, so
+# threads rarely wait for the GIL.  "pairs" reuses the rows of "edges" and
+# "halves", which are dead by then: a smaller workspace stays in cache.
+# Blocks are corner-major, so most operations see whole contiguous operands of
+# one shape (numpy's cheapest call, and the least time holding the GIL).
+_SUMMED_ROWS = {0: 4, 1: 13, 2: 31}       # det, |det|, bound, area; det·u (3×3); det·u_i·u_i, det·u_i·u_i+1
+_BLOCKS = (("points", (3, 3)),            # (corner, axis): a, b, c
+           ("edges", (2, 5)),             # (edge, axis): b − a, c − a; axes x y z x y, so cyclic shifts are slices
+           ("halves", (2, 3)),            # (half, axis): the cross product's two products
+           ("normal", (3,)), ("scratch", (3,)),
+           ("summed", (_SUMMED_ROWS[2],)))
+_OVERLAID = ("pairs", (3, 3), "edges")    # (pair, axis): a + b, b + c, c + a, from where "edges" starts
+_WORKSPACE_ROWS = sum(math.prod(shape) for _, shape in _BLOCKS)
 
 
-def _chunk_sums(scaled_axes, faces, order, measure, weights, work):
+def _views(buffer, m):
+    """The workspace blocks for a chunk of ``m`` faces, as contiguous views of ``buffer``."""
+    views, starts, start = {}, {}, 0
+    for name, shape in _BLOCKS:
+        size = math.prod(shape) * m
+        views[name] = buffer[start:start + size].reshape(*shape, m)
+        starts[name] = start
+        start += size
+    name, shape, over = _OVERLAID
+    views[name] = buffer[starts[over]:starts[over] + math.prod(shape) * m].reshape(*shape, m)
+    return views
+
+
+def _chunk_sums(scaled_axes, faces, order, measure, weights, w):
     """Pairwise sums over one chunk of faces, in a preallocated workspace.
 
     Parameters
@@ -173,64 +208,76 @@ def _chunk_sums(scaled_axes, faces, order, measure, weights, work):
     scaled_axes : ndarray, shape (3, n), float64
         Scaled vertex coordinates, one contiguous row per axis.
     faces : ndarray, shape (m, 3), int
-    work : ndarray, shape (_ROWS, ≥ m), float64
-        Scratch; every operation writes into it (no temporaries).
+    w : dict of ndarray
+        The workspace views for m faces (:func:`_views`); every operation
+        writes into them (no temporaries).
 
     Returns
     -------
     sums : ndarray
-        Σ det, Σ |det|, Σ bound, Σ area, then Σ det·s (order ≥ 1), then the
-        second-moment terms xx, yy, zz, xy, yz, xz (order 2).
+        Σ det, Σ |det|, Σ bound, Σ area, then (order ≥ 1) Σ det·u_i for the
+        pairs u = a + b, b + c, c + a, then (order 2) Σ det·u_i·u_i and
+        Σ det·u_i·u_(i+1) (the xx, yy, zz and xy, yz, zx terms), each as
+        (pair, axis i).  Over the three pairs, Σ u = 2 s and Σ u uᵀ =
+        s sᵀ + a aᵀ + b bᵀ + c cᵀ.
     refined, exact : int
         Faces sent to the double-double and to the exact path.
     """
     m = faces.shape[0]
-    w = work[:, :m]
-    for k, corner in enumerate((_A, _B, _C)):
-        for axis in range(3):
-            np.take(scaled_axes[axis], faces[:, k], out=w[corner + axis], mode="clip")
-    a, e1, e2 = w[_A:_A + 3], w[_E1:_E1 + 5], w[_E2:_E2 + 5]
-    np.subtract(w[_B:_B + 3], a, out=e1[:3])
-    np.subtract(w[_C:_C + 3], a, out=e2[:3])
-    e1[3:] = e1[:2]
-    e2[3:] = e2[:2]
-    p, q, normal, scratch = w[_P:_P + 3], w[_Q:_Q + 3], w[_N:_N + 3], w[_T:_T + 3]
-    np.multiply(e1[1:4], e2[2:5], out=p)
-    np.multiply(e1[2:5], e2[1:4], out=q)
-    np.subtract(p, q, out=normal)
-    det, bound, area = w[_DET], w[_BOUND], w[_AREA]
-    np.multiply(normal, normal, out=scratch)
-    _row_sum(scratch, area)
-    np.sqrt(area, out=area)
-    np.abs(p, out=p)
-    np.abs(q, out=q)
-    np.add(p, q, out=p)                                   # |p| + |q|, per component
+    points = w["points"]
+    for corner in range(3):
+        np.take(scaled_axes, faces[:, corner], axis=1, out=points[corner], mode="clip")
+    summed = w["summed"][:_SUMMED_ROWS[order]]
+    det, absolute, bound, area = summed[:4]
+    permanent = _cross_product(w, area)
     refined = exact = 0
     if measure == "area":
-        _row_sum(p, bound)
+        _row_sum(permanent, bound)
         bound *= _gamma(6)
         np.multiply(area, _gamma(3), out=det)
         bound += det
         det[:] = area
     else:
-        np.multiply(a, normal, out=scratch)
-        _row_sum(scratch, det)
-        np.abs(a, out=scratch)
-        np.multiply(scratch, p, out=scratch)
-        _row_sum(scratch, bound)
-        bound *= _DET_BOUND
-        refined, exact = _refine_hard_faces(w, m)
+        _determinant(w, det, bound)
+        refined, exact = _refine_hard_faces(points, det, bound, absolute, w["scratch"][0])
     if weights is not None:
         det[:], bound[:] = _weighted(det, bound, weights)
-    np.abs(det, out=w[_ABS])
+    if weights is not None or measure == "area":
+        np.abs(det, out=absolute)
     if order >= 1:
-        s = w[_S:_S + 5]
-        np.add(a, w[_B:_B + 3], out=s[:3])
-        np.add(s[:3], w[_C:_C + 3], out=s[:3])
-        np.multiply(s[:3], det, out=w[_FIRST:_FIRST + 3])
-    if order >= 2:
-        _second_moment_terms(w, det)
-    return np.sum(w[_SUMMED[order]], axis=1), refined, exact
+        _moment_terms(w, det, summed[4:].reshape(-1, 3, 3, m))
+    return np.add.reduce(summed, axis=1), refined, exact
+
+
+def _cross_product(w, area):
+    """normal = (b − a) × (c − a) into w["normal"], area = |normal|; returns |p| + |q| per axis."""
+    points, edges, halves, normal = w["points"], w["edges"], w["halves"], w["normal"]
+    for k in range(2):
+        np.subtract(points[k + 1], points[0], out=edges[k, :3])
+        np.copyto(edges[k, 3:], edges[k, :2])
+    # halves = (e1[i+1]·e2[i+2], e2[i+1]·e1[i+2]) for each axis i: normal is their difference.
+    np.multiply(edges[0, 1:4], edges[1, 2:5], out=halves[0])
+    np.multiply(edges[1, 1:4], edges[0, 2:5], out=halves[1])
+    np.subtract(halves[0], halves[1], out=normal)
+    squares = w["scratch"]
+    np.multiply(normal, normal, out=squares)
+    _row_sum(squares, area)
+    np.sqrt(area, out=area)
+    np.abs(halves, out=halves)
+    permanent = w["pairs"][0]                        # free until the moment terms
+    np.add(halves[0], halves[1], out=permanent)
+    return permanent
+
+
+def _determinant(w, det, bound):
+    """det = a · normal, and Shewchuk's bound on its error (the permanent from |a|, |p| + |q|)."""
+    a, scratch = w["points"][0], w["scratch"]
+    np.multiply(a, w["normal"], out=scratch)
+    _row_sum(scratch, det)
+    np.abs(a, out=scratch)
+    scratch *= w["pairs"][0]
+    _row_sum(scratch, bound)
+    bound *= _DET_BOUND
 
 
 def _row_sum(rows, out):
@@ -239,15 +286,29 @@ def _row_sum(rows, out):
     out += rows[2]
 
 
-def _refine_hard_faces(w, m):
-    """Re-evaluate the determinants whose a-priori bound is too large relative to them."""
-    det, bound, scratch = w[_DET], w[_BOUND], w[_T]
-    np.abs(det, out=scratch)
-    scratch *= _REFINE_ABOVE
+def _refine_hard_faces(points, det, bound, absolute, scratch):
+    """Re-evaluate the determinants whose a-priori bound is too large relative to them.
+
+    det is invariant under a cyclic rotation of the corners, but its bound is
+    not: a sliver's cross product cancels at the corners whose two edges are
+    nearly parallel, and not at the third.  So the other two rotations are
+    tried in plain float first; only faces none of them certifies go to
+    double-double, and those it cannot certify to exact rationals.
+    Writes ``absolute = |det|`` (``scratch`` is a free row).
+    """
+    np.abs(det, out=absolute)
+    np.multiply(absolute, _REFINE_ABOVE, out=scratch)
     hard = np.flatnonzero(bound > scratch)
     if not hard.size:
         return 0, 0
-    a, b, c = (w[corner:corner + 3, hard].T for corner in (_A, _B, _C))
+    corners = points[:, :, hard]
+    det[hard], bound[hard] = _best_rotation(corners, det[hard], bound[hard])
+    absolute[hard] = np.abs(det[hard])
+    still_hard = bound[hard] > _REFINE_ABOVE * absolute[hard]
+    hard, corners = hard[still_hard], corners[:, :, still_hard]
+    if not hard.size:
+        return 0, 0
+    a, b, c = (corner.T for corner in corners)
     fine, fine_bound = _refined_det(a, b, c)
     still = np.flatnonzero(fine_bound > _REFINE_ABOVE * np.abs(fine))
     for face in still:
@@ -255,28 +316,59 @@ def _refine_hard_faces(w, m):
         fine_bound[face] = U * abs(fine[face])
     det[hard] = fine
     bound[hard] = fine_bound
+    absolute[hard] = np.abs(fine)
     return hard.size, still.size
 
 
-def _second_moment_terms(w, det):
-    """det·(s sᵀ + a aᵀ + b bᵀ + c cᵀ) per face: xx, yy, zz, then xy, yz, zx.
+def _best_rotation(corners, det, bound):
+    """det and its bound from the corners as given or rotated to start the shortest edge.
 
-    Each term is summed s, a, b, c in that order (3 additions), then weighted.
+    A sliver's cross product cancels at the corners whose two edges are nearly
+    parallel, which the ends of its shortest edge are not (unless all its
+    corners are: an obtuse sliver).  det is the same for every cyclic rotation.
+    Faces without a short edge are left alone: what makes them hard is their
+    plane passing near the reference point, which no rotation changes.
+
+    Parameters
+    ----------
+    corners : ndarray, shape (3, 3, h)
+        (corner, axis, face).
+    det, bound : ndarray, shape (h,)
+        From the corners as given; the smaller bound wins.  Changed in place.
     """
-    diagonal, off = w[_SECOND:_SECOND + 3], w[_SECOND + 3:_SECOND + 6]
-    product = w[_T:_T + 3]
-    for k, point in enumerate((_S, _A, _B, _C)):
-        rows = w[point:point + 5]
-        rows[3:] = rows[:2]
-        if k == 0:
-            np.multiply(rows[:3], rows[:3], out=diagonal)
-            np.multiply(rows[:3], rows[1:4], out=off)
-            continue
-        np.multiply(rows[:3], rows[:3], out=product)
-        diagonal += product
-        np.multiply(rows[:3], rows[1:4], out=product)
-        off += product
-    w[_SECOND:_SECOND + 6] *= det
+    following = np.take(corners, [1, 2, 0], axis=0)             # (b, c, a)
+    lengths = np.square(following - corners).sum(axis=1)         # |b − a|², |c − b|², |a − c|²
+    start = np.argmin(lengths, axis=0)
+    # Needles whose shortest edge does not already start the face.
+    needles = np.flatnonzero((start != 0) & (lengths.max(axis=0) > 4.0 * lengths.min(axis=0)))
+    if not needles.size:
+        return det, bound
+    w = _views(np.empty(_WORKSPACE_ROWS * needles.size), needles.size)
+    np.copyto(w["points"], np.take(following[:, :, needles], [1, 2, 0], axis=0))   # (c, a, b)
+    np.copyto(w["points"], following[:, :, needles], where=start[needles] == 1)
+    rotated_det, rotated_bound, area = w["summed"][0], w["summed"][1], w["summed"][3]
+    _cross_product(w, area)
+    _determinant(w, rotated_det, rotated_bound)
+    better = rotated_bound < bound[needles]
+    det[needles[better]] = rotated_det[better]
+    bound[needles[better]] = rotated_bound[better]
+    return det, bound
+
+
+def _moment_terms(w, det, terms):
+    """det·u, then (order 2) det·u_i·u_i and det·u_i·u_(i+1) per face and pair u, into ``terms``.
+
+    ``terms`` has shape (1 or 3, 3, 3, m): (kind, pair, axis i, face).
+    """
+    points, pairs = w["points"], w["pairs"]
+    np.add(points[:2], points[1:], out=pairs[:2])
+    np.add(points[2], points[0], out=pairs[2])
+    weighted = terms[0]
+    np.multiply(pairs, det, out=weighted)
+    if terms.shape[0] > 1:
+        np.multiply(weighted, pairs, out=terms[1])
+        np.multiply(weighted[:, :2], pairs[:, 1:], out=terms[2, :, :2])
+        np.multiply(weighted[:, 2], pairs[:, 0], out=terms[2, :, 2])
 
 
 def _weighted(det, bound, weights):
@@ -308,37 +400,18 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="
     Moments
     """
     scaled_axes = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64).T)     # (3, n)
-    reference, scale_exp = reference_frame(scaled_axes.T)
+    reference, scale_exp, radius = _frame(scaled_axes)
     scaled_axes -= reference[:, None]                          # exact (see reference_frame)
-    np.ldexp(scaled_axes, -scale_exp, out=scaled_axes)
-    scaled = scaled_axes.T
-    radius = float(np.abs(scaled_axes).max())
+    scaled_axes *= math.ldexp(1.0, -scale_exp)                 # exact: a power of two (faster than np.ldexp)
     faces = np.asarray(faces)
-    if faces.size and (faces.min() < 0 or faces.max() >= vertices.shape[0]):
+    if faces.size and _outside(faces, vertices.shape[0]):
         raise IndexError("a face refers to a vertex that does not exist")
     totals, refined, exact = _face_sums(scaled_axes, faces, order, measure, weights, chunk)
-    gamma = _pairwise_gamma(min(chunk, faces.shape[0])) + U
-    det_sum = totals[0]
-    abs_sum = totals[1] * (1 + 2 * gamma)
-    bound_sum = totals[2] * (1 + 2 * gamma)
-    det_error = bound_sum + gamma * abs_sum
-    first = np.zeros(3)
-    first_error = 0.0
-    if order >= 1:
-        first = np.array(totals[4:7])
-        first_error = 3 * radius * ((_gamma(3) + gamma) * abs_sum + (1 + _gamma(3)) * bound_sum)
-    second = np.zeros((3, 3))
-    second_error = 0.0
-    if order >= 2:
-        xx, yy, zz, xy, yz, zx = totals[7:13]
-        second = np.array([[xx, xy, zx], [xy, yy, yz], [zx, yz, zz]])
-        # Per face: s has 2 roundings, each product 1 more, the four-point sum 3,
-        # the weight det 1 (γ(9)); then the pairwise sum over the chunk.
-        second_error = 12 * radius ** 2 * ((_gamma(9) + gamma * (1 + _gamma(9))) * abs_sum
-                                           + (1 + _gamma(9)) * bound_sum)
+    sums, abs_sum = _bounded_sums(totals, order, radius, _pairwise_gamma(min(chunk, faces.shape[0])) + U)
+    det_sum, det_error, first, first_error, second, second_error = sums
     if measure == "volume" and abs_sum > _CANCELLATION_LIMIT * abs(det_sum):
         # The tetrahedra cancel heavily: redo the sums (weighted or not) in double-double.
-        dd = integrate_double_double(scaled, faces, order, weights=weights)
+        dd = integrate_double_double(scaled_axes.T, faces, order, weights=weights)
         det_sum, det_error = dd["det_sum"], dd["det_error"]
         first, first_error = dd.get("first", first), dd.get("first_error", first_error)
         second, second_error = dd.get("second", second), dd.get("second_error", second_error)
@@ -347,8 +420,41 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="
                    totals[3], faces.shape[0], refined, exact)
 
 
+def _bounded_sums(totals, order, radius, gamma):
+    """Σ det, Σ det·s, Σ det·Q from the kernel's totals (:func:`_face_sums`), each with its error bound.
+
+    ``gamma`` bounds the relative rounding of one chunk's pairwise sum and the
+    final rounding of ``fsum``; ``radius`` is the largest scaled coordinate.
+    Returns the six values and the (bounded above) Σ |det|.
+    """
+    det_sum = totals[0]
+    abs_sum = totals[1] * (1 + 2 * gamma)
+    bound_sum = totals[2] * (1 + 2 * gamma)
+    det_error = bound_sum + gamma * abs_sum
+    first, first_error, second, second_error = np.zeros(3), 0.0, np.zeros((3, 3)), 0.0
+    if order >= 1:
+        # Σ det·s = ½ Σ det·(a + b + b + c + c + a): each term det·u has 2 roundings.
+        first = 0.5 * np.array(totals[4:7])
+        first_error = 3 * radius * ((_gamma(2) + gamma * (1 + _gamma(2))) * abs_sum + (1 + _gamma(2)) * bound_sum)
+    if order >= 2:
+        xx, yy, zz, xy, yz, zx = totals[7:13]
+        second = np.array([[xx, xy, zx], [xy, yy, yz], [zx, yz, zz]])
+        # Per face: Σ over the pairs of u uᵀ is s sᵀ + a aᵀ + b bᵀ + c cᵀ (≤ 12 r² each
+        # element); each term det·u_i·u_j has 4 roundings (γ(4)); then the pairwise sum.
+        second_error = 12 * radius ** 2 * ((_gamma(4) + gamma * (1 + _gamma(4))) * abs_sum
+                                           + (1 + _gamma(4)) * bound_sum)
+    return (det_sum, det_error, first, first_error, second, second_error), abs_sum
+
+
 # Above this ratio Σ|det| / |Σ det| the fast pass loses more than ~4 bits to cancellation.
 _CANCELLATION_LIMIT = 16.0
+
+
+def _outside(faces, count):
+    """Whether any face index is negative or at least ``count``."""
+    if faces.dtype == np.int64:
+        return faces.view(np.uint64).max() >= count        # one pass: negatives wrap above 2**63
+    return faces.min() < 0 or faces.max() >= count
 
 
 def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
@@ -358,13 +464,24 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
     parallel; every chunk's sums are the same whichever thread forms them and
     ``fsum`` is exact, so the result does not depend on the thread count
     (:func:`massprops.parallel.thread_count`).
+
+    Returns
+    -------
+    totals : list of 13 floats
+        Σ det, Σ |det|, Σ bound, Σ area, Σ det·(2 s) (3), the six Σ det·Q terms
+        (xx, yy, zz, xy, yz, zx); zeros for the orders not formed.
+    refined, exact : int
     """
     starts = range(0, faces.shape[0], chunk)
 
     def run(part):
-        work = np.empty((_ROWS, chunk))
+        size = min(chunk, faces.shape[0])
+        buffer = np.empty(_WORKSPACE_ROWS * size)
+        full = _views(buffer, size)
         return [_chunk_sums(scaled_axes, faces[start:start + chunk], order, measure,
-                            None if weights is None else weights[start:start + chunk], work) for start in part]
+                            None if weights is None else weights[start:start + chunk],
+                            full if faces.shape[0] - start >= size else _views(buffer, faces.shape[0] - start))
+                for start in part]
 
     from .parallel import thread_count
 
@@ -375,9 +492,14 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
         from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(workers) as pool:
             results = [r for part in pool.map(run, [starts[k::workers] for k in range(workers)]) for r in part]
-    width = _SUMMED[order].stop - _DET
-    totals = [math.fsum(column) for column in zip(*(sums for sums, _, _ in results))] or [0.0] * width
-    return (totals + [0.0] * (13 - width), sum(r for _, r, _ in results), sum(e for _, _, e in results))
+    totals = []
+    if results:
+        sums = np.array([sums for sums, _, _ in results])
+        totals = [math.fsum(column) for column in sums[:, :4].T]
+        # Each moment term (kind, axis) is summed over all chunks and its three pairs at once.
+        terms = sums[:, 4:].reshape(len(results), -1, 3, 3)
+        totals += [math.fsum(terms[:, kind, :, axis].ravel()) for kind in range(terms.shape[1]) for axis in range(3)]
+    return (totals + [0.0] * (13 - len(totals)), sum(r for _, r, _ in results), sum(e for _, _, e in results))
 
 
 _CHUNKS_PER_THREAD = 4                    # below this many chunks a thread costs more than it saves

@@ -12,7 +12,9 @@ noise or on face order.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -81,17 +83,17 @@ def axis_angle_bounds(moments, norm_error, groups=()):
     -------
     tuple of 3 floats
     """
-    member = {k: tuple(g) for g in groups for k in g}
+    values = np.asarray(moments, dtype=float).tolist()
     bounds = []
     for k in range(3):
-        inside = member.get(k, (k,))
-        gaps = [abs(moments[k] - moments[j]) for j in range(3) if j not in inside]
+        inside = next((g for g in groups if k in g), (k,))
+        gaps = [abs(values[k] - values[j]) for j in range(3) if j not in inside]
         if not gaps:
             bounds.append(0.0)
             continue
         gap = min(gaps) - norm_error
-        ratio = norm_error / gap if gap > 0 else np.inf
-        bounds.append(float(np.arcsin(ratio)) + 4 * _U if ratio < 1 else float(np.pi / 2))
+        ratio = norm_error / gap if gap > 0 else math.inf
+        bounds.append(float(np.arcsin(ratio)) + 4 * _U if ratio < 1 else math.pi / 2)
     return tuple(bounds)
 
 
@@ -120,8 +122,14 @@ def physical_checks(moments, moments_error):
 
 
 def _canonical_sign(axis):
-    k = int(np.argmax(np.abs(axis)))          # argmax returns the first of ties
-    return axis if axis[k] > 0 else -axis
+    """``±axis`` (a list of 3 floats) with its component of largest magnitude positive, first index on ties."""
+    k = max(range(3), key=lambda i: abs(axis[i]))         # max returns the first of ties
+    return axis if axis[k] > 0 else [-x for x in axis]
+
+
+def _cross(a, b):
+    """``a × b`` of two lists of 3 floats, each element rounded as numpy.cross rounds it."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def _subspace_axes(basis):
@@ -137,6 +145,20 @@ def _subspace_axes(basis):
         if len(chosen) == basis.shape[0]:
             break
     return chosen
+
+
+def _symmetric(inertia):
+    """``(J + Jᵀ) / 2`` as a float array; ``J`` itself when it is symmetric (then that is exactly J)."""
+    inertia = np.asarray(inertia, dtype=float)
+    (a, b, c), (d, e, f), (g, h, i) = inertia.tolist()
+    if b == d and c == g and f == h and max(abs(a), abs(b), abs(c), abs(e), abs(f), abs(i)) < 2.0 ** 1023:
+        return inertia              # below 2**1023, x + x does not overflow: the halving gives x exactly
+    return 0.5 * (inertia + inertia.T)
+
+
+@lru_cache(maxsize=8)
+def _sine(angle):
+    return np.sin(angle)
 
 
 def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
@@ -162,24 +184,29 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
     -------
     Principal
     """
-    inertia = np.asarray(inertia, dtype=float)
-    inertia = 0.5 * (inertia + inertia.T)
+    inertia = _symmetric(inertia)
     moments, vectors = np.linalg.eigh(inertia)
-    scale = float(np.abs(moments).max())
-    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.
-    moments_error = 3.0 * error + 64.0 * _U * float(np.linalg.norm(inertia))
+    scale = max(map(abs, moments.tolist()))
+    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.  ‖J‖_F as numpy.linalg.norm forms it.
+    flat = inertia.ravel()
+    moments_error = 3.0 * error + 64.0 * _U * math.sqrt(flat.dot(flat))
     # sin θ ≤ E / (gap − E) stays below sin(angle_tolerance) iff gap ≥ E (1 + 1/sin(angle_tolerance)).
-    axis_gap = moments_error * (1.0 + 1.0 / np.sin(angle_tolerance))
+    axis_gap = moments_error * (1.0 + 1.0 / _sine(angle_tolerance))
     tolerance = max(rtol * scale, moments_error, extra_tolerance, axis_gap)
-    groups = degenerate_groups(moments, tolerance)
+    groups = degenerate_groups(moments.tolist(), tolerance)
     axes = [vectors[:, k] for k in range(3)]
     for group in groups:
         basis = np.array([vectors[:, k] for k in group])
         for k, axis in zip(group, _subspace_axes(basis)):
             axes[k] = axis
-    a1 = _canonical_sign(axes[0])
-    a2 = _canonical_sign(axes[1] - (a1 @ axes[1]) * a1)
-    a2 /= np.linalg.norm(a2)
-    a3 = np.cross(a1, a2)
-    return Principal(moments, np.array([a1, a2, a3]) + 0.0, tuple(tuple(g) for g in groups),
+    # Dot products and norms stay numpy's (BLAS, on the same operands, so every bit is as it was); the
+    # rest is per element in Python floats, which round each product and difference as numpy does.
+    first = axes[0].tolist()
+    a1 = _canonical_sign(first)
+    projection = float((axes[0] if a1 is first else -axes[0]) @ axes[1])
+    a2 = _canonical_sign([b - projection * a for a, b in zip(a1, axes[1].tolist())])
+    length = float(np.linalg.norm(a2))
+    a2 = [x / length for x in a2]
+    axes = [[x + 0.0 for x in a] for a in (a1, a2, _cross(a1, a2))]       # + 0.0: no negative zeros
+    return Principal(moments, np.array(axes), tuple(tuple(g) for g in groups),
                      moments_error, tolerance, axis_angle_bounds(moments, moments_error, groups))

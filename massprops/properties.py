@@ -24,12 +24,13 @@ __all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
 _U = 2.0 ** -53
 UNITS = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000), "um": Fraction(1, 10 ** 6),
          "in": Fraction(254, 10000), "ft": Fraction(3048, 10000)}
+_NO_UNIT = Fraction(1)
 
 
 def unit_factor(unit):
     """Metres per mesh unit, exactly; 1 when no unit is declared."""
     if unit is None:
-        return Fraction(1)
+        return _NO_UNIT
     try:
         return UNITS[unit]
     except KeyError:
@@ -54,69 +55,129 @@ class ErrorBounds:
     principal_axes_rad: tuple = ()
     input_resolution: dict = field(default_factory=dict)
 
-    def as_dict(self):
+    def as_dict(self, principal=None):
+        """The bounds by name; with a :class:`massprops.principal.Principal`, its moment and axis bounds."""
+        moments, axes = (self.principal_moments, self.principal_axes_rad) if principal is None else (
+            principal.moments_error, principal.axes_error)
         out = {"volume": self.volume, "mass": self.mass, "center_of_mass": self.center_of_mass,
-               "inertia_com": self.inertia_com, "principal_moments": self.principal_moments}
-        if self.principal_axes_rad:
-            out["principal_axes_rad"] = list(self.principal_axes_rad)
+               "inertia_com": self.inertia_com, "principal_moments": moments}
+        if axes:
+            out["principal_axes_rad"] = list(axes)
         if self.input_resolution:
             out["input_resolution"] = dict(self.input_resolution)
         return out
 
 
-def _round_error(x):
-    """Bound on the error of rounding the exact value behind float array ``x`` once."""
-    return _U * float(np.max(np.abs(x))) if np.size(x) else 0.0
+def _round_error(values):
+    """Bound on the error of rounding the exact values behind the floats ``values`` once each."""
+    return _U * max(map(abs, values))
 
 
-class _Ratio:
-    """An exact rational ``n / d`` (d > 0) without reduction: the post-processing's arithmetic.
+def _quotient(num, den, exp=0):
+    """The float nearest ``num · 2**exp / den`` (``den > 0``).
 
-    Like :class:`fractions.Fraction` but without a gcd per operation (the
-    values are short-lived, so their integers stay small); ``float()`` is
-    Python's correctly rounded integer division, as ``float(Fraction)`` is,
-    so every result is bit for bit the same.
+    Python's integer true division is correctly rounded (to nearest, ties to
+    even, subnormals included; OverflowError beyond the float range), as
+    ``float(Fraction)`` is: every value is that of exact arithmetic, rounded once.
     """
+    return (num << exp) / den if exp >= 0 else num / (den << -exp)
 
-    __slots__ = ("n", "d")
 
-    def __init__(self, n, d=1):
-        self.n, self.d = (n, d) if d > 0 else (-n, -d)
+def _ratio(value):
+    """``(n, d)``, ``d > 0``, with ``value == n / d`` exactly (floats, numpy floats, ints, Fractions)."""
+    if isinstance(value, (float, np.floating)):
+        return float(value).as_integer_ratio()
+    if type(value) is int:
+        return value, 1
+    return Fraction(value).as_integer_ratio()
 
-    @classmethod
-    def of(cls, value):
-        """The exact value of an int, float (numpy scalars too) or Fraction."""
-        if isinstance(value, (float, np.floating)):
-            return cls(*float(value).as_integer_ratio())
-        return cls(*Fraction(value).as_integer_ratio())
 
-    def times_power_of_two(self, k):
-        return _Ratio(self.n << k, self.d) if k >= 0 else _Ratio(self.n, self.d << -k)
+def _on_common_scale(values):
+    """Python ints ``n_k`` and one exponent ``e`` with ``values[k] == n_k · 2**e`` exactly.
 
-    def __add__(self, other):
-        return _Ratio(self.n * other.d + other.n * self.d, self.d * other.d)
+    Every finite float is an integer times a power of two; on the smallest
+    exponent of the set, sums and products of the values are integer sums and
+    products, with no Fraction and no gcd.  A NaN or infinity raises here.
+    """
+    ratios = [float(v).as_integer_ratio() for v in values]
+    bits = max(d.bit_length() for _, d in ratios)          # each d is a power of two
+    return [n << (bits - d.bit_length()) for n, d in ratios], 1 - bits
 
-    def __sub__(self, other):
-        return _Ratio(self.n * other.d - other.n * self.d, self.d * other.d)
 
-    def __mul__(self, other):
-        if isinstance(other, int):
-            return _Ratio(self.n * other, self.d)
-        return _Ratio(self.n * other.n, self.d * other.d)
+def _check_material(density, mass):
+    if density is not None and mass is not None:
+        raise OptionError("give --density or --mass, not both")
+    for name, value in (("density", density), ("mass", mass)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise OptionError(f"{name} must be a positive number, got {value!r}")
 
-    def __truediv__(self, other):
-        if isinstance(other, int):
-            return _Ratio(self.n, self.d * other)
-        return _Ratio(self.n * other.d, self.d * other.n)
 
-    def __pow__(self, k):
-        return _Ratio(self.n ** k, self.d ** k)
+def _density_of_mass(mass, volume_n, volume_d, s):
+    """``(n, d, e)``: the density ``n · 2**e / d`` that gives the total ``mass`` to the exact volume."""
+    mass_n, mass_d = _ratio(mass)
+    return mass_n * volume_d, mass_d * volume_n, -3 * s
 
-    def __neg__(self):
-        return _Ratio(-self.n, self.d)
 
-    def __float__(self):
-        return self.n / self.d
+def _center_and_inertia(moments, length, rho, volume_s, rel_rho):
+    """Center of mass, ``J_G'`` (order 2, else None) and their bounds, exactly, then rounded once.
+
+    Parameters
+    ----------
+    length : (int, int, int)
+        ``(n, d, s)``: a scaled unit is ``n · 2**s / d`` output lengths.
+    rho : (int, int, int)
+        ``(n, d, e)``: the density is ``n · 2**e / d``.
+    volume_s : float
+        ``det_sum / 6``, correctly rounded.
+    rel_rho : float
+        Relative error bound of the density (non-zero when derived from a mass).
+    """
+    unit_n, unit_d, s = length
+    e0, det_sum = moments.det_error, float(moments.det_sum)
+    sums = [det_sum, *np.ravel(moments.first).tolist()]
+    if moments.order >= 2:
+        sums += np.ravel(moments.second).tolist()
+    ints, exp = _on_common_scale(sums)
+    m0, first = ints[0], ints[1:4]
+    g = [_quotient(f, 4 * m0) for f in first]                    # g = first / (4 det_sum), scaled units
+    gmax = max(abs(x) for x in g)                                # rounding is monotone: the float of the max
+    eg = (moments.first_error + 4 * gmax * e0) / (4 * (det_sum - e0)) * 1.01
+    com, low = [], min(0, s)
+    for r, f in zip(moments.reference, first):
+        # r + g · 2**s on the scale 2**low, times the unit; r is a float or, for a stretched part, a Fraction
+        r_n, r_d = _ratio(r)
+        num = ((r_n * 4 * m0) << -low) + ((f * r_d) << (s - low))
+        com.append(_quotient(num * unit_n, r_d * 4 * m0 * unit_d, low))
+    error_com = eg * _quotient(unit_n, unit_d, s) + _round_error(com)
+    if moments.order < 2:
+        return np.array(com), error_com, None, 0.0
+    ec = (moments.second_error / 120 + (e0 / 6) * gmax ** 2 + volume_s * (2 * gmax * eg + eg ** 2)) * 1.01
+    inertia = _inertia(m0, first, ints[4:], exp, length, rho)
+    scale = _quotient(rho[0] * unit_n ** 5, rho[1] * unit_d ** 5, rho[2] + 5 * s)
+    error_inertia = 2 * ec * scale + rel_rho * max(map(abs, inertia)) * 1.01 + _round_error(inertia)
+    return np.array(com), error_com, np.array(inertia).reshape(3, 3), error_inertia
+
+
+def _inertia(m0, first, second, exp, length, rho):
+    """The nine elements of ``J_G'`` (row-major floats) from the sums on one scale ``2**exp``.
+
+    ``C = second / 120 − (det_sum / 6) g gᵀ`` with ``g = first / (4 det_sum)``
+    is ``(4 m0 second − 5 first firstᵀ) · 2**exp / (480 m0)``, and
+    ``J = (tr C · I − C) · rho · length⁵``.
+    """
+    unit_n, unit_d, s = length
+    central = [4 * m0 * second[3 * i + j] - 5 * first[i] * first[j] for i in range(3) for j in range(3)]
+    trace = central[0] + central[4] + central[8]
+    num, den = rho[0] * unit_n ** 5, 480 * m0 * rho[1] * unit_d ** 5
+    exp += rho[2] + 5 * s
+    inertia = []
+    for k, c in enumerate(central):
+        i, j = divmod(k, 3)
+        if i > j and c == central[3 * j + i]:
+            inertia.append(inertia[3 * j + i])                   # symmetric sums: the same rational
+        else:
+            inertia.append(_quotient(((trace if i == j else 0) - c) * num, den, exp))
+    return inertia
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,56 +237,43 @@ class MassProperties:
 
     @classmethod
     def _from_moments(cls, moments, *, density, mass, unit, pose, path):
-        """The exact post-processing behind :meth:`from_moments`."""
-        if density is not None and mass is not None:
-            raise OptionError("give --density or --mass, not both")
-        for name, value in (("density", density), ("mass", mass)):
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise OptionError(f"{name} must be a positive number, got {value!r}")
-        length = _Ratio.of(unit_factor(unit)).times_power_of_two(moments.scale_exp)
-        m0, e0 = _Ratio.of(moments.det_sum), moments.det_error      # a NaN or infinite sum raises here
+        """The exact post-processing behind :meth:`from_moments`.
+
+        Rationals are carried as Python integers, ``num · 2**exp / den``: the
+        sums' floats on one power-of-two scale, the unit's and the density's
+        exact ratios.  Each output is one correctly rounded :func:`_quotient`,
+        bit for bit ``float`` of the same formulas in :class:`fractions.Fraction`,
+        without Fraction's gcd at every step.
+        """
+        _check_material(density, mass)
+        length = (*unit_factor(unit).as_integer_ratio(), moments.scale_exp)     # unit_n / unit_d · 2**s
+        unit_n, unit_d, s = length
+        e0 = moments.det_error
+        m_n, m_d = float(moments.det_sum).as_integer_ratio()                    # a NaN or infinite sum raises here
         if moments.det_sum <= 0 or moments.det_sum <= e0:
             raise MeshGeometryError("the solid has zero volume (flat or degenerate: the faces enclose nothing)",
                                     path=path, fix="check the export; a surface needs --shell THICKNESS")
-        volume_s = m0 / 6
-        volume = volume_s * length ** 3
-        rho = _Ratio.of(density if density is not None else 1) if mass is None else _Ratio.of(mass) / volume
-        total = rho * volume
-        rel_volume = (e0 / 6) / float(volume_s)
-        rho_rel_error = rel_volume if mass is not None else 0.0
-        error_volume = rel_volume * float(volume) * 1.01 + _round_error(float(volume))
-        error_mass = (0.0 if mass is not None else rel_volume * float(total) * 1.01) + _round_error(float(total))
-        surface_area = float(_Ratio.of(moments.area2) / 2 * length ** 2)
+        volume_n, volume_d = m_n * unit_n ** 3, 6 * m_d * unit_d ** 3           # volume = det_sum / 6 · length³
+        rho = ((*_ratio(density if density is not None else 1), 0) if mass is None
+               else _density_of_mass(mass, volume_n, volume_d, s))
+        volume_s = _quotient(m_n, 6 * m_d)
+        rel_volume = (e0 / 6) / volume_s
+        volume = _quotient(volume_n, volume_d, 3 * s)
+        total = _quotient(rho[0] * volume_n, rho[1] * volume_d, rho[2] + 3 * s)
+        error_volume = rel_volume * volume * 1.01 + _round_error((volume,))
+        error_mass = (0.0 if mass is not None else rel_volume * total * 1.01) + _round_error((total,))
+        area_n, area_d = float(moments.area2).as_integer_ratio()
+        surface_area = _quotient(area_n * unit_n ** 2, 2 * area_d * unit_d ** 2, 2 * s)
         com = inertia = None
         error_com = error_inertia = 0.0
         if moments.order >= 1:
-            g = [_Ratio.of(x) / (m0 * 4) for x in moments.first]
-            gmax = max(abs(float(x)) for x in g)            # rounding is monotone: the float of the max
-            eg = (moments.first_error + 4 * gmax * e0) / (4 * (float(m0) - e0)) * 1.01
-            factor = _Ratio.of(unit_factor(unit))
-            com = np.array([float((_Ratio.of(r) + x.times_power_of_two(moments.scale_exp)) * factor)
-                            for r, x in zip(moments.reference, g)])
-            error_com = eg * float(length) + _round_error(com)
-            if moments.order >= 2:
-                c = [[_Ratio.of(moments.second[i, j]) / 120 - volume_s * g[i] * g[j] for j in range(3)]
-                     for i in range(3)]
-                ec = (moments.second_error / 120 + (e0 / 6) * gmax ** 2
-                      + float(volume_s) * (2 * gmax * eg + eg ** 2)) * 1.01
-                trace = c[0][0] + c[1][1] + c[2][2]
-                scale = rho * length ** 5
-                inertia = np.array([[float(((trace - c[i][j]) if i == j else -c[i][j]) * scale)
-                                     for j in range(3)] for i in range(3)])
-                error_inertia = (2 * ec * float(scale) + rho_rel_error * float(np.abs(inertia).max()) * 1.01
-                                 + _round_error(inertia))
-        values = (float(volume), float(total), float(rho), surface_area)
+            com, error_com, inertia, error_inertia = _center_and_inertia(
+                moments, length, rho, volume_s, rel_volume if mass is not None else 0.0)
+        # Every value is a quotient of integers: finite, or an OverflowError (reported by from_moments).
+        values = (volume, total, _quotient(*rho), surface_area)
         if values[0] == 0.0:
             raise MeshGeometryError("the results underflow double precision", path=path,
                                     fix="give the mesh in a smaller length unit (e.g. --unit) or rescale it")
-        if not all(math.isfinite(v) for v in values) or (
-                inertia is not None and not np.all(np.isfinite(inertia))) or (
-                com is not None and not np.all(np.isfinite(com))):
-            raise MeshGeometryError("the results overflow double precision", path=path,
-                                    fix="give the mesh in a larger length unit")
         bounds = ErrorBounds(volume=error_volume, mass=error_mass, center_of_mass=error_com,
                              inertia_com=error_inertia)
         if pose is not None and unit is not None:
@@ -268,12 +316,13 @@ class MassProperties:
         return principal(self.inertia_com, error=self.error.inertia_com, rtol=self.degenerate_rtol,
                          extra_tolerance=resolution)
 
-    @property
+    # Cached (the value is immutable; replace() makes a new one): a report asks for them more than once.
+    @cached_property
     def center_of_mass_global(self):
         """ndarray (3,): ``A c' + t``."""
         return self.pose.apply(self.center_of_mass)
 
-    @property
+    @cached_property
     def inertia_com_global(self):
         """ndarray (3, 3): ``A J_G' Aᵀ``, about the center of mass, global axes."""
         self._need_inertia()

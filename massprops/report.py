@@ -18,10 +18,22 @@ __all__ = ["result_dict", "to_json", "to_text", "csv_row", "CSV_COLUMNS", "to_cs
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "a1x,a1y,a1z,a2x,a2y,a2z,a3x,a3y,a3z,err_volume,err_inertia,elapsed_s").split(",")
+_COLUMN_SET = frozenset(CSV_COLUMNS)
+_CSV_HEADER = ",".join(CSV_COLUMNS) + "\n"          # no column name needs quoting
+
+
+_AS_IS = frozenset((str, int, float, bool, type(None)))
 
 
 def _plain(value):
     """numpy values to plain Python for json."""
+    kind = type(value)
+    if kind in _AS_IS:                      # exact types: a numpy float64 (a float subclass) is converted below
+        return value
+    if kind is dict:
+        return {k: v if type(v) in _AS_IS else _plain(v) for k, v in value.items()}
+    if kind is list:
+        return [v if type(v) in _AS_IS else _plain(v) for v in value]
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, (np.floating, np.integer)):
@@ -80,13 +92,10 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
         local, world = p.angular_momentum(omega)
         out["angular_momentum"] = {"local": local, "global": world}
         out["kinetic_energy"] = p.kinetic_energy(omega)
-    error = p.error
-    if p.inertia_com is not None and want("principal"):  # no eigen-decomposition unless asked
-        from dataclasses import replace
-        error = replace(error, principal_moments=p.principal.moments_error,
-                        principal_axes_rad=p.principal.axes_error)
+    # no eigen-decomposition unless asked
+    error = p.error.as_dict(p.principal if p.inertia_com is not None and want("principal") else None)
     # Bounds only for what was computed (volume and mass always are).
-    out["error"] = {key: bound for key, bound in error.as_dict().items()
+    out["error"] = {key: bound for key, bound in error.items()
                     if _ERROR_OF.get(key, key) in out or key in ("volume", "mass", "input_resolution")}
     out["pose"] = {"rotation": p.pose.rotation, "translation": p.pose.translation}
     out["checks"] = result.checks
@@ -184,11 +193,33 @@ def csv_row(obj, *, status="ok", message=""):
 
 def to_csv(rows):
     """CSV text with the SPEC's header for rows made by :func:`csv_row`."""
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=CSV_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
+    buffer = io.StringIO(_CSV_HEADER)
+    buffer.seek(0, io.SEEK_END)
+    writer = csv.writer(buffer, lineterminator="\n")
+    for row in rows:
+        extra = row.keys() - _COLUMN_SET
+        if extra:
+            raise ValueError(f"dict contains fields not in the CSV columns: {', '.join(map(repr, extra))}")
+        values = [row.get(key, "") for key in CSV_COLUMNS]
+        line = _plain_csv_line(values)
+        if line is None:
+            writer.writerow(values)
+        else:
+            buffer.write(line)
     return buffer.getvalue()
+
+
+_NEEDS_QUOTES = re.compile(r'["\r\n]')
+
+
+def _plain_csv_line(values):
+    """The CSV line of strings and ints that need no quoting (what csv.writer writes for them), else None."""
+    if len(values) < 2 or not all(type(v) is str or type(v) is int for v in values):
+        return None                 # a lone empty field is written quoted
+    line = ",".join(map(str, values))
+    if line.count(",") != len(values) - 1 or _NEEDS_QUOTES.search(line):
+        return None
+    return line + "\n"
 
 
 def relative_difference(ours, theirs, *, floor=0.0):

@@ -23,14 +23,44 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["coordinate_resolution", "with_input_resolution", "resolution_warning", "annotate"]
+from .principal import axis_angle_bounds, physical_checks
+from .properties import unit_factor
+
+__all__ = ["coordinate_resolution", "VertexColumns", "vertex_columns", "with_input_resolution",
+           "resolution_warning", "annotate"]
 
 # The storage step (ulp) above which a warning says the input's precision limits
 # the result, relative to the part's largest extent.
 WARN_RELATIVE_STEP = 1e-5
+
+
+class VertexColumns(NamedTuple):
+    """A mesh's vertices as three contiguous columns, shape (3, n), with each axis's lowest and highest value."""
+
+    columns: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+
+
+def vertex_columns(vertices):
+    """:class:`VertexColumns` of ``vertices`` (n, 3): one copy, then every pass runs along contiguous rows."""
+    columns = np.ascontiguousarray(vertices.T)       # reducing (n, 3) along axis 0 is several times slower
+    return VertexColumns(columns, columns.min(axis=1), columns.max(axis=1))
+
+
+@lru_cache(maxsize=None)
+def _storage_type(source_dtype):
+    dtype = np.dtype(source_dtype)
+    return dtype.type if dtype.kind == "f" else np.float64
+
+
+def _half_ulp(largest, source_dtype):
+    return 0.5 * float(np.spacing(_storage_type(source_dtype)(largest)))
 
 
 def coordinate_resolution(vertices, source_dtype):
@@ -46,14 +76,21 @@ def coordinate_resolution(vertices, source_dtype):
     -------
     float: ``δ ≥ 0``, mesh units.
     """
-    dtype = np.dtype(source_dtype)
-    if dtype.kind != "f":
-        dtype = np.dtype(np.float64)
-    largest = float(np.abs(vertices).max()) if vertices.size else 0.0
-    return 0.5 * float(np.spacing(dtype.type(largest)))
+    return _half_ulp(float(np.abs(vertices).max()) if vertices.size else 0.0, source_dtype)
 
 
-def with_input_resolution(props, mesh, *, mass_given=False):
+def _largest_squared_distance(columns, center):
+    """``max |x − c|²`` over the vertices, each ``(dx² + dz²) + dy²`` with every operation rounded.
+
+    That order is the one ``numpy.einsum("ij,ij->i", d, d)`` used on the rows
+    ``d = x − c`` before (its paired accumulation), so the values are unchanged.
+    """
+    offset = columns - np.asarray(center, dtype=float)[:, None]
+    offset *= offset
+    return float(((offset[0] + offset[2]) + offset[1]).max())
+
+
+def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
     """``props`` with ``error.input_resolution`` filled in for ``mesh``.
 
     Keys (absolute, in the output's units): ``coordinates`` (the largest δ),
@@ -69,23 +106,25 @@ def with_input_resolution(props, mesh, *, mass_given=False):
     mass_given : bool
         The total mass was given (density derived), so mass does not move and
         the density does.
+    vertices : VertexColumns, optional
+        :func:`vertex_columns` of ``mesh.vertices``, if already made.
     """
-    from .principal import axis_angle_bounds
-    from .properties import unit_factor
-
     length = float(unit_factor(props.unit))
-    delta = coordinate_resolution(mesh.vertices, mesh.source_dtype)
+    columns, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
+    # max |x| is the larger of |min| and |max|: exactly coordinate_resolution's input.
+    delta = _half_ulp(max(abs(float(high.max())), abs(float(low.min()))), mesh.source_dtype)
     volume = props.volume / length ** 3
-    center = (np.zeros(3) if props.center_of_mass is None
-              else np.asarray(props.center_of_mass, dtype=float) / length)
-    offset = mesh.vertices - center
     swept = math.sqrt(3.0) * delta * props.surface_area / length ** 2
     resolution = {"coordinates": delta * length, "volume": swept * length ** 3,
                   "mass": 0.0 if mass_given else props.density * swept * length ** 3}
+    center = ([0.0, 0.0, 0.0] if props.center_of_mass is None
+              else [c / length for c in np.asarray(props.center_of_mass, dtype=float).tolist()])
     if props.center_of_mass is not None:
-        resolution["center_of_mass"] = swept * float(np.abs(offset).max()) / volume * length
+        # Rounding is monotone, so max |x − c| over the vertices is at a face of the bounding box, bit for bit.
+        farthest = max(max(h - c, c - l) for l, h, c in zip(low.tolist(), high.tolist(), center))
+        resolution["center_of_mass"] = swept * farthest / volume * length
     if props.inertia_com is not None:
-        inertia = props.density * swept * float(np.einsum("ij,ij->i", offset, offset).max()) * length ** 5
+        inertia = props.density * swept * _largest_squared_distance(columns, center) * length ** 5
         if mass_given:
             # J = (M / V) C: the derived density moves with the volume.
             inertia += float(np.linalg.norm(props.inertia_com, 2)) * swept / volume
@@ -98,12 +137,14 @@ def with_input_resolution(props, mesh, *, mass_given=False):
     return props
 
 
-def resolution_warning(props, mesh):
-    """A warning when the coordinates' storage step is coarse against the part's size, else None."""
-    from .properties import unit_factor
+def resolution_warning(props, mesh, *, vertices=None):
+    """A warning when the coordinates' storage step is coarse against the part's size, else None.
 
+    ``vertices``: :func:`vertex_columns` of ``mesh.vertices``, if already made.
+    """
+    _, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
     step = 2.0 * props.error.input_resolution.get("coordinates", 0.0)
-    extent = float(np.ptp(np.ascontiguousarray(mesh.vertices.T), axis=1).max()) * float(unit_factor(props.unit))
+    extent = float((high - low).max()) * float(unit_factor(props.unit))
     if not step or not extent or step / extent <= WARN_RELATIVE_STEP:
         return None
     dtype = np.dtype(mesh.source_dtype).name
@@ -126,10 +167,9 @@ def annotate(props, mesh, *, mass_given=False):
         :func:`massprops.principal.physical_checks`).
     warnings : list of str
     """
-    from .principal import physical_checks
-
-    props = with_input_resolution(props, mesh, mass_given=mass_given)
-    warnings = [w for w in (resolution_warning(props, mesh),) if w]
+    vertices = vertex_columns(mesh.vertices)
+    props = with_input_resolution(props, mesh, mass_given=mass_given, vertices=vertices)
+    warnings = [w for w in (resolution_warning(props, mesh, vertices=vertices),) if w]
     checks = {}
     if props.inertia_com is not None:
         moments = props.principal.moments

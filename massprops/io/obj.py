@@ -15,6 +15,7 @@ expressions and numpy; anything else line by line.
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
 
@@ -23,6 +24,7 @@ import numpy as np
 from ..errors import MeshFormatError
 from ..mesh import TriangleMesh
 from . import register_format
+from .decimals import PAD as _PAD                 # bytes kept free around the text for the decimal windows
 
 _VERTEX = re.compile(rb"^v[ \t]+([^\n]*)", re.M)
 _FACE = re.compile(rb"^f[ \t]+([^\n]*)", re.M)
@@ -31,15 +33,134 @@ _SLASHED = re.compile(rb"/[^ \t\r\n]*")
 
 def read(path):
     with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        padded = bytearray(_PAD + size + 1 + _PAD)   # read once, with room for the decimal windows
+        padded[_PAD + size] = 10                      # the last line ends, as if the file ended in a newline
+        complete = f.readinto(memoryview(padded)[_PAD:_PAD + size]) == size and not f.read(1)
+    mesh = _read_padded(padded, size) if complete else None
+    return mesh if mesh is not None else _read_general(path)
+
+
+def _read_general(path):
+    """The layouts the plain reader declines: regular expressions, else line by line (which names errors)."""
+    with open(path, "rb") as f:
         text = f.read()
-    mesh = _read_plain_layout(text)
-    if mesh is None:
-        mesh = _read_common_layout(text)
+    mesh = _read_common_layout(text)
     if mesh is None:
         mesh = _read_lines(text.splitlines(), path)
     if mesh.faces.size and mesh.faces.max() >= mesh.vertices.shape[0]:
         _read_lines(text.splitlines(), path)      # names the offending line
     return mesh
+
+
+def _read_plain_layout(text):
+    """Comment lines, ``v x y z`` lines, other lines (``vt``, ``vn``, ``s``, ...), then only ``f`` lines; or None.
+
+    Faces are triangles with positive indices, corners as ``i``, ``i/t``,
+    ``i/t/n`` or ``i//n``.  Other layouts (interleaved, polygons, groups
+    between faces, indented lines) return None.
+    """
+    return _read_padded(bytes(_PAD) + text + b"\n" + bytes(_PAD), len(text))
+
+
+def _read_padded(padded, size):
+    """:func:`_read_plain_layout` of the ``size`` bytes after the first ``_PAD`` of ``padded`` (then ``\\n``)."""
+    buf = np.frombuffer(padded, dtype=np.uint8)
+    blocks = _blocks(buf, size)
+    if blocks is None:
+        return None
+    from . import decimals
+    vertex_lines, face_lines, face_end = blocks
+    tokens = _line_tokens(buf, vertex_lines[:-1], vertex_lines[-1])
+    coordinates = None if tokens is None else decimals.token_values(buf, *tokens)
+    faces = None if coordinates is None else _face_corners(buf, face_lines, face_end, decimals)
+    if faces is None or faces.min() < 1 or faces.max() > coordinates.size // 3:
+        return None
+    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
+
+
+def _blocks(buf, size):
+    """Starts of the ``v`` lines (and of the line after), of the ``f`` lines, and the end of the last; or None.
+
+    Plain: one run of ``v`` lines, then one run of ``f`` lines up to the end
+    (blank lines aside); no other line that ``bytes.split`` would start
+    with ``v`` or ``f``, no indented line, no lone CR (``bytes.splitlines``
+    splits there).
+    """
+    body = buf[_PAD:_PAD + size + 1]
+    if buf[_PAD + size] != 10 or np.any(buf[np.flatnonzero(body == 13) + _PAD + 1] != 10):
+        return None
+    line_starts = np.flatnonzero(body == 10)
+    line_starts[1:] = line_starts[:-1] + 1 + _PAD
+    line_starts[0] = _PAD
+    first, second = buf[line_starts], buf[line_starts + 1]
+    spaced = (second == 32) | (second == 9)
+    vertex, face = np.flatnonzero((first == 118) & spaced), np.flatnonzero((first == 102) & spaced)
+    if not vertex.size or not face.size or vertex[-1] >= face[0]:
+        return None
+    blank = (first == 10) | ((first == 13) & (second == 10))
+    stray = ((first == 118) | (first == 102)) & ~spaced & (second <= 32) | (first <= 32) & ~blank
+    if (vertex[-1] - vertex[0] + 1 != vertex.size or np.any(stray[:face[0]])
+            or not np.all(blank[face[-1] + 1:]) or face[-1] - face[0] + 1 != face.size):
+        return None
+    after = line_starts[face[-1] + 1] if face[-1] + 1 < line_starts.size else _PAD + size + 1
+    return line_starts[vertex[0]:vertex[-1] + 2], line_starts[face[0]:face[-1] + 1], after
+
+
+def _line_tokens(buf, line_starts, end):
+    """Starts and ends of the three words after the tag on each line (from ``line_starts`` to ``end``), or None.
+
+    Words are split as ``bytes.split`` splits them: at spaces and tabs; a
+    line ends at ``\\n`` or ``\\r\\n``.
+    """
+    separator = np.flatnonzero(buf[line_starts[0]:end] <= 32)
+    separator += line_starts[0]
+    kind = buf[separator]
+    if np.count_nonzero(kind == 32) + line_starts.size != separator.size:
+        return _spaced_tokens(buf, line_starts, separator, kind)
+    if separator.size != 4 * line_starts.size:
+        return None
+    separator = separator.reshape(-1, 4)
+    starts = separator[:, :3] + 1
+    ends = separator[:, 1:]
+    if not (np.array_equal(separator[:, 0], line_starts + 1) and np.all(ends > starts)):
+        return None
+    return starts.ravel(), ends.ravel()
+
+
+def _spaced_tokens(buf, line_starts, separator, kind):
+    """:func:`_line_tokens` where tabs, CR or runs of separators occur."""
+    newline = kind == 10
+    if not np.all(newline | (kind == 32) | (kind == 9) | ((kind == 13) & (buf[separator + 1] == 10))):
+        return None                               # other control characters split lines or words otherwise
+    starts = np.concatenate(([line_starts[0]], separator[:-1] + 1))
+    words = separator > starts
+    starts, separator = starts[words], separator[words]
+    if starts.size != 4 * line_starts.size:
+        return None
+    starts, ends = starts.reshape(-1, 4), separator.reshape(-1, 4)
+    if not (np.array_equal(starts[:, 0], line_starts) and np.array_equal(ends[:, 0], line_starts + 1)):
+        return None
+    return starts[:, 1:].ravel(), ends[:, 1:].ravel()
+
+
+def _face_corners(buf, line_starts, end, decimals):
+    """The vertex numbers (1-based) of ``f`` lines of three corners each, or None.
+
+    Corners may carry ``/t``, ``/t/n`` or ``//n``: the number is what
+    precedes the first slash (a corner ending in a slash is declined).
+    """
+    tokens = _line_tokens(buf, line_starts, end)
+    if tokens is None:
+        return None
+    starts, ends = tokens
+    lengths = ends - starts
+    if np.any(buf[line_starts[0]:end] == ord("/")):
+        slash = decimals.first_byte_at(buf, starts, ord("/"))
+        if np.any(buf[ends - 1] == ord("/")) or np.any((slash == 8) & (lengths > 8) & (buf[starts + 8] != ord("/"))):
+            return None
+        lengths = np.minimum(lengths, slash)
+    return decimals.small_integers(buf, starts, lengths)
 
 
 def _numbers(chunks, dtype):
@@ -50,81 +171,6 @@ def _numbers(chunks, dtype):
             return np.fromstring(b" ".join(chunks), dtype=dtype, sep=" ")
         except ValueError:
             return np.zeros(0, dtype=dtype)
-
-
-def _tagged_numbers(block, tag, dtype):
-    """The numbers of ``block`` if every one of its lines is ``TAG n n n`` (and ``tag`` occurs nowhere else).
-
-    Returns None otherwise.  Deleting the tag bytes leaves a plain list of
-    numbers: a few passes in C instead of a regular expression per line.
-    """
-    block = block.rstrip()
-    lines = block.count(b"\n") + 1
-    if not block.startswith(tag + b" ") or block.count(b"\n" + tag + b" ") + 1 != lines \
-            or block.count(tag) != lines:
-        return None
-    from .decimals import parse_decimals          # only when an OBJ is read: keeps startup light
-    block = block.translate(None, tag)
-    numbers = parse_decimals(block) if dtype == np.float64 else None
-    if numbers is None:
-        numbers = _numbers([block], dtype)
-    return numbers if numbers.size == 3 * lines else None
-
-
-def _read_plain_layout(text):
-    """Comment lines, ``v x y z`` lines, other lines (``vt``, ``vn``, ``s``, ...), then only ``f`` lines; or None.
-
-    Faces are triangles with positive indices, corners as ``i``, ``i/t``,
-    ``i/t/n`` or ``i//n``.  Other layouts (interleaved, polygons, groups
-    between faces, indented lines) return None.
-    """
-    first_face = text.find(b"\nf ") + 1
-    first_vertex = 0 if text.startswith(b"v ") else text.find(b"\nv ") + 1
-    if not first_face or (not first_vertex and not text.startswith(b"v ")) or first_vertex > first_face:
-        return None
-    vertex_end = text.find(b"\n", text.rfind(b"\nv ") + 1) + 1
-    if not 0 < vertex_end <= first_face:
-        return None
-    for other in (b"\n" + text[:first_vertex], b"\n" + text[vertex_end:first_face]):
-        # no further vertex or face lines (also not indented or tab-separated) outside the two blocks
-        if any(mark in other for mark in (b"\nv\t", b"\nf", b"\n ", b"\n\t")) or other.count(b"\nv ") > 0:
-            return None
-    coordinates = _tagged_numbers(text[first_vertex:vertex_end], b"v", np.float64)
-    faces = None if coordinates is None else _face_corners(text[first_face:])
-    if faces is None or faces.min() < 1:
-        return None
-    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
-
-
-def _face_corners(block):
-    """The vertex numbers (1-based) of ``f`` lines of three corners each, or None.
-
-    Corners may carry ``/t``, ``/t/n`` or ``//n``: slashes become spaces and
-    the first integer of each corner is kept, located by counting the
-    corner's slashes (an empty field other than ``//`` breaks the count, and
-    the block is declined).
-    """
-    if b"/" not in block:
-        return _tagged_numbers(block, b"f", np.int64)
-    block = block.rstrip()
-    lines = block.count(b"\n") + 1
-    if not block.startswith(b"f ") or block.count(b"\nf ") + 1 != lines or block.count(b"f") != lines:
-        return None
-    block = block.translate(None, b"f")
-    buf = np.frombuffer(block, dtype=np.uint8)
-    slash = buf == ord("/")
-    edges = np.diff((buf > 32).view(np.int8), prepend=np.int8(0), append=np.int8(0))
-    starts = np.flatnonzero(edges == 1)
-    if starts.size != 3 * lines or slash[starts].any():
-        return None
-    fields = 1 + np.bincount(np.searchsorted(starts, np.flatnonzero(slash), side="right") - 1,
-                             minlength=starts.size)
-    doubled = np.flatnonzero(slash[:-1] & slash[1:])
-    fields -= np.bincount(np.searchsorted(starts, doubled, side="right") - 1, minlength=starts.size)
-    numbers = _numbers([block.replace(b"/", b" ")], np.int64)
-    if numbers.size != fields.sum():
-        return None
-    return numbers[np.cumsum(fields) - fields]
 
 
 def _read_common_layout(text):

@@ -1,0 +1,174 @@
+"""The per-file steps after integration give exactly what their plain formulations give.
+
+- input resolution from the vertex columns and the bounding box against the
+  direct per-vertex formulas (``|x − c|`` over every vertex);
+- the principal axes, done per element in Python floats, against the same
+  steps in numpy arrays, on random and degenerate tensors;
+- the report's JSON conversion and CSV writer against the general ones
+  (recursive isinstance conversion, ``csv.DictWriter``).
+"""
+
+import csv
+import io
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from conftest import random_rotation
+from massprops import report, solids
+from massprops.compute import mass_properties
+from massprops.mesh import TriangleMesh
+from massprops.principal import (AXIS_ANGLE_TOLERANCE, DEFAULT_RTOL, _subspace_axes, axis_angle_bounds,
+                                 degenerate_groups, principal)
+from massprops.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
+
+seeds = st.integers(0, 2 ** 32 - 1)
+
+
+def _random_points(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 3000))
+    scale = 10.0 ** rng.integers(-4, 5, size=3)
+    points = rng.normal(size=(n, 3)) * scale + rng.normal(size=3) * 10.0 ** rng.integers(-2, 6)
+    center = rng.normal(size=3) * scale * rng.choice([0.1, 1.0, 100.0])     # sometimes outside the points
+    return points, center
+
+
+@settings(max_examples=80, deadline=None)
+@given(seeds)
+def test_bounding_box_gives_the_per_vertex_extremes(seed):
+    points, center = _random_points(seed)
+    columns, low, high = vertex_columns(points)
+    assert columns.tolist() == points.T.tolist()
+    assert low.tolist() == points.min(axis=0).tolist() and high.tolist() == points.max(axis=0).tolist()
+    # rounding is monotone: the largest rounded |x − c| sits at a face of the box, bit for bit
+    farthest = max(max(h - c, c - lo) for lo, h, c in zip(low.tolist(), high.tolist(), center.tolist()))
+    assert farthest == float(np.abs(points - center).max())
+    assert max(abs(float(high.max())), abs(float(low.min()))) == float(np.abs(points).max())
+
+
+@settings(max_examples=80, deadline=None)
+@given(seeds)
+def test_largest_squared_distance_is_the_rounded_per_vertex_maximum(seed):
+    points, center = _random_points(seed)
+    expected = max((dx * dx + dz * dz) + dy * dy for dx, dy, dz in (points - center).tolist())
+    got = _largest_squared_distance(np.ascontiguousarray(points.T), center)
+    assert got == expected
+    exact = max(sum((Fraction(x) - Fraction(c)) ** 2 for x, c in zip(row, center.tolist())) for row in points.tolist())
+    assert abs(Fraction(got) - exact) <= exact * Fraction(6, 2 ** 53)        # five roundings at most
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_resolution_uses_the_largest_coordinate(dtype):
+    mesh = solids.box((1.0, 2.0, 0.5), (-300.0, 2.0, 7.0))
+    mesh = TriangleMesh(mesh.vertices, mesh.faces, np.dtype(dtype))
+    resolution = mass_properties(mesh).properties.error.input_resolution
+    assert resolution["coordinates"] == coordinate_resolution(mesh.vertices, dtype)
+    assert resolution["coordinates"] == 0.5 * float(np.spacing(dtype(300.5)))
+
+
+def numpy_principal_axes(vectors, groups):
+    """The axes step of :func:`principal` in numpy arrays (its formulation before the per-element rewrite)."""
+    axes = [vectors[:, k] for k in range(3)]
+    for group in groups:
+        basis = np.array([vectors[:, k] for k in group])
+        for k, axis in zip(group, _subspace_axes(basis)):
+            axes[k] = axis
+
+    def canonical(axis):
+        k = int(np.argmax(np.abs(axis)))
+        return axis if axis[k] > 0 else -axis
+
+    a1 = canonical(axes[0])
+    a2 = canonical(axes[1] - (a1 @ axes[1]) * a1)
+    a2 /= np.linalg.norm(a2)
+    return np.array([a1, a2, np.cross(a1, a2)]) + 0.0
+
+
+def _tensors(seed):
+    rng = np.random.default_rng(seed)
+    moments = rng.uniform(0.1, 10.0, 3) * 10.0 ** rng.integers(-30, 30)
+    kind = rng.integers(0, 4)
+    if kind == 1:
+        moments[1] = moments[0]                       # a degenerate pair
+    elif kind == 2:
+        moments[:] = moments[0]                       # all three equal
+    rotation = random_rotation(seed) if rng.integers(0, 3) else np.eye(3)[rng.permutation(3)]
+    tensor = rotation @ np.diag(moments) @ rotation.T
+    if rng.integers(0, 2):
+        tensor[0, 1] = np.nextafter(tensor[0, 1], np.inf)        # not exactly symmetric
+    return tensor
+
+
+@settings(max_examples=150, deadline=None)
+@given(seeds, st.floats(0.0, 1e-6))
+def test_principal_matches_its_numpy_formulation(seed, relative_error):
+    tensor = _tensors(seed)
+    error = relative_error * float(np.abs(tensor).max())
+    result = principal(tensor, error=error)
+    symmetric = 0.5 * (tensor + tensor.T)
+    moments, vectors = np.linalg.eigh(symmetric)
+    assert result.moments.tobytes() == moments.tobytes()
+    moments_error = 3.0 * error + 64.0 * 2.0 ** -53 * float(np.linalg.norm(symmetric))
+    assert result.moments_error == moments_error
+    tolerance = max(DEFAULT_RTOL * float(np.abs(moments).max()), moments_error,
+                    moments_error * (1.0 + 1.0 / np.sin(AXIS_ANGLE_TOLERANCE)))
+    groups = degenerate_groups(moments, tolerance)
+    assert result.degenerate == tuple(tuple(g) for g in groups)
+    assert result.axes.tobytes() == numpy_principal_axes(vectors, groups).tobytes()
+    assert result.axes_error == axis_angle_bounds(list(moments), moments_error, groups)
+
+
+def reference_plain(value):
+    """numpy values to plain Python, the general way."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, dict):
+        return {k: reference_plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [reference_plain(v) for v in value]
+    return value
+
+
+class Checks(dict):
+    pass
+
+
+def test_plain_converts_like_the_general_way():
+    value = {"a": np.float64(1.5), "b": [np.int64(3), (np.float32(0.1), "x", None)], "c": np.arange(3.0),
+             "d": Checks(ok=np.bool_(True), n=np.int32(2)), "e": [[1.0, -0.0], [np.nan, True]], "f": (1, 2)}
+    got, expected = report._plain(value), reference_plain(value)
+    assert repr(got) == repr(expected)
+    assert [type(x) for x in got["b"][1]] == [float, str, type(None)] and type(got["a"]) is float
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.dictionaries(st.sampled_from(report.CSV_COLUMNS),
+                                st.one_of(st.text(), st.sampled_from(["a,b", 'say "x"', "line\nbreak", "cr\r"]),
+                                          st.floats(allow_nan=False).map(repr), st.integers(), st.booleans(),
+                                          st.none())),
+                max_size=4))
+def test_csv_writer_matches_dictwriter(rows):
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=report.CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    assert report.to_csv(rows) == buffer.getvalue()
+
+
+def test_csv_writer_refuses_unknown_columns():
+    with pytest.raises(ValueError, match="not in the CSV columns"):
+        report.to_csv([{"file": "a.stl", "colour": "red"}])
+
+
+def test_error_dict_with_principal_keeps_key_order():
+    props = mass_properties(solids.l_bracket(3.0, 1.0, 0.7)).properties
+    keys = list(props.error.as_dict(props.principal))
+    assert keys == ["volume", "mass", "center_of_mass", "inertia_com", "principal_moments", "principal_axes_rad",
+                    "input_resolution"]
+    assert props.error.as_dict(props.principal)["principal_moments"] == props.principal.moments_error
+    assert props.error.as_dict()["principal_moments"] == props.error.principal_moments
