@@ -172,11 +172,11 @@ def _exact_det(a, b, c):
 
 # The per-chunk workspace: named blocks of rows (one value per face in each row),
 # carved from one flat buffer so every view is contiguous whatever the chunk's
-# length.  Whole blocks go through each numpy call: a chunk takes ~30 calls, so
-# threads rarely wait for the GIL.  "pairs" reuses the rows of "edges" and
-# "halves", which are dead by then: a smaller workspace stays in cache.
-# Blocks are corner-major, so most operations see whole contiguous operands of
-# one shape (numpy's cheapest call, and the least time holding the GIL).
+# length.  Whole blocks go through each numpy call (a chunk takes ~30 calls,
+# so threads seldom wait for the GIL), and blocks are corner-major, so most
+# calls see contiguous operands of one shape: numpy's cheapest kind of call.
+# "pairs" reuses the rows of "edges" and "halves", dead by then, so the
+# workspace stays smaller and in cache.
 _SUMMED_ROWS = {0: 4, 1: 13, 2: 31}       # det, |det|, bound, area; det·u (3×3); det·u_i·u_i, det·u_i·u_i+1
 _BLOCKS = (("points", (3, 3)),            # (corner, axis): a, b, c
            ("edges", (2, 5)),             # (edge, axis): b − a, c − a; axes x y z x y, so cyclic shifts are slices

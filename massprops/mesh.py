@@ -118,8 +118,11 @@ def _edge_hash(tail, head, vertex_bits):
     if vertex_bits > 32:
         raise MeshGeometryError("more than 2**32 vertices: too many for the edge check",
                                 fix="split the mesh into parts")
-    direction = np.subtract(head > tail, head < tail, dtype=np.int8)
-    low, high = np.minimum(tail, head), np.maximum(tail, head)
+    difference = head - tail
+    direction = np.sign(difference).astype(np.int8)
+    low = np.minimum(tail, head)
+    high = np.abs(difference, out=difference)             # the higher vertex is the lower plus |head - tail|
+    high += low
     shift = np.uint64(64 - vertex_bits)
     low, high = low.view(np.uint64), high.view(np.uint64)
     high *= np.uint64(0x9E3779B97F4A7C15)                # odd: a bijection mod 2**k

@@ -132,6 +132,13 @@ def _cross(a, b):
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
+def _norm(x):
+    """Euclidean (Frobenius) norm as numpy.linalg.norm forms it, ``sqrt(x · x)`` on the flattened array,
+    bit for bit, without its dispatch."""
+    flat = np.asarray(x, dtype=float).ravel()
+    return math.sqrt(flat.dot(flat))
+
+
 def _subspace_axes(basis):
     """The frame's axes projected into span(basis rows), Gram–Schmidt, in x, y, z order."""
     chosen = []
@@ -139,7 +146,7 @@ def _subspace_axes(basis):
         v = basis.T @ (basis @ unit)
         for w in chosen:
             v = v - (w @ v) * w
-        length = np.linalg.norm(v)
+        length = _norm(v)
         if length > _PROJECTION_FLOOR:
             chosen.append(v / length)
         if len(chosen) == basis.shape[0]:
@@ -187,9 +194,8 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
     inertia = _symmetric(inertia)
     moments, vectors = np.linalg.eigh(inertia)
     scale = max(map(abs, moments.tolist()))
-    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.  ‖J‖_F as numpy.linalg.norm forms it.
-    flat = inertia.ravel()
-    moments_error = 3.0 * error + 64.0 * _U * math.sqrt(flat.dot(flat))
+    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.
+    moments_error = 3.0 * error + 64.0 * _U * _norm(inertia)
     # sin θ ≤ E / (gap − E) stays below sin(angle_tolerance) iff gap ≥ E (1 + 1/sin(angle_tolerance)).
     axis_gap = moments_error * (1.0 + 1.0 / _sine(angle_tolerance))
     tolerance = max(rtol * scale, moments_error, extra_tolerance, axis_gap)
@@ -205,7 +211,7 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
     a1 = _canonical_sign(first)
     projection = float((axes[0] if a1 is first else -axes[0]) @ axes[1])
     a2 = _canonical_sign([b - projection * a for a, b in zip(a1, axes[1].tolist())])
-    length = float(np.linalg.norm(a2))
+    length = _norm(a2)
     a2 = [x / length for x in a2]
     axes = [[x + 0.0 for x in a] for a in (a1, a2, _cross(a1, a2))]       # + 0.0: no negative zeros
     return Principal(moments, np.array(axes), tuple(tuple(g) for g in groups),

@@ -25,6 +25,10 @@ _U = 2.0 ** -53
 UNITS = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000), "um": Fraction(1, 10 ** 6),
          "in": Fraction(254, 10000), "ft": Fraction(3048, 10000)}
 _NO_UNIT = Fraction(1)
+# One shared identity pose, its arrays read-only: making a Pose costs more than the rest of a small part's result.
+_NO_POSE = Pose()
+_NO_POSE.rotation.setflags(write=False)
+_NO_POSE.translation.setflags(write=False)
 
 
 def unit_factor(unit):
@@ -279,7 +283,7 @@ class MassProperties:
         if pose is not None and unit is not None:
             # A pose's translation is given in mesh units, like the mesh; outputs are SI.
             pose = Pose(pose.rotation, pose.translation * float(unit_factor(unit)))
-        return cls(*values, com, inertia, bounds, pose or Pose(), unit)
+        return cls(*values, com, inertia, bounds, pose or _NO_POSE, unit)
 
     @classmethod
     def from_cell_moments(cls, volume_moments, mass_moments, *, mass=None, unit=None, pose=None, path=None):

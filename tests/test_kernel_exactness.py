@@ -19,9 +19,14 @@ from massprops.integrate import _refine_hard_faces, integrate
 from massprops.integrate_dd import DET_ERROR, det_double_double
 
 
+def _det3(a, b, c):
+    """det[a b c] of three exact (Fraction) points."""
+    return (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]))
+
+
 def _exact_det(a, b, c):
-    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = ([Fraction(float(x)) for x in p] for p in (a, b, c))
-    return a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+    return _det3(*([Fraction(float(x)) for x in p] for p in (a, b, c)))
 
 
 def _exact_sums(moments, vertices, faces, weights=None):
@@ -32,8 +37,7 @@ def _exact_sums(moments, vertices, faces, weights=None):
     det_sum, first, second = Fraction(0), [Fraction(0)] * 3, [[Fraction(0)] * 3 for _ in range(3)]
     for k, face in enumerate(faces):
         a, b, c = (scaled[int(i)] for i in face)
-        det = (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-               + a[2] * (b[0] * c[1] - b[1] * c[0]))
+        det = _det3(a, b, c)
         if weights is not None:
             det *= Fraction(float(weights[k]))
         s = [a[i] + b[i] + c[i] for i in range(3)]

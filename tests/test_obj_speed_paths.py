@@ -27,10 +27,15 @@ def _tokens(text):
 
 def _assert_as_float(tokens):
     expected = np.array([float(t) for t in tokens])
-    for values in (decimals.token_values(*_tokens(b" ".join(tokens))), parse_decimals(b" \n".join(tokens))):
-        assert values is not None
-        wrong = [t for t, a, b in zip(tokens, values, expected) if a.tobytes() != b.tobytes()]
-        assert not wrong, wrong[:5]
+    few = decimals._FEW
+    try:
+        for decimals._FEW in (few, 0):            # also the vectorised exponent pass for however few tokens
+            for values in (decimals.token_values(*_tokens(b" ".join(tokens))), parse_decimals(b" \n".join(tokens))):
+                assert values is not None
+                wrong = [t for t, a, b in zip(tokens, values, expected) if a.tobytes() != b.tobytes()]
+                assert not wrong, wrong[:5]
+    finally:
+        decimals._FEW = few
 
 
 def _near_midpoints(values, digits):
@@ -57,10 +62,21 @@ def test_midpoints_and_their_neighbours_round_as_float():
 
 
 def test_exact_ties_round_half_even():
-    # M / 10**j exactly halfway between two doubles: 2**53 + 1 and 2**54 + 2 scaled, odd and even neighbours
-    ties = [str(2 ** 53 + 1).encode(), str(2 ** 53 + 3).encode(), b"9007199254740993.0", b"900719925474099.3e1",
-            b"18014398509481990.0", str(2 ** 55 + 4).encode(), b"0.5", b"2.5e-1"]
-    _assert_as_float(ties)
+    # integers halfway between doubles (odd above 2**53, 2 mod 4 above 2**54, ...), with the even neighbour
+    # below or above, also with digits after the dot
+    ties = [2 ** 53 + 1, 2 ** 53 + 3, 2 ** 54 + 2, 2 ** 54 + 6, 2 ** 54 + 10, 2 ** 55 + 4, 2 ** 55 + 12, 2 ** 56 + 8]
+    tokens = [f"{t}{suffix}".encode() for t in ties for suffix in ("", ".0", ".00", ".000", "0e-1", "00e-2")]
+    _assert_as_float(tokens + [b"0.5", b"2.5e-1", b"1.5", b"2.5"])
+
+
+def test_common_forms_take_the_vectorised_path():
+    rng = np.random.default_rng(11)
+    values = rng.choice([-1.0, 1.0], 400) * rng.uniform(0.1, 1.0, 400) * 10.0 ** rng.integers(-2, 7, 400)
+    tokens = [(fmt % v).encode() for fmt in ("%.17g", "%.6f", "%.9e", "%.3f", "%d") for v in values]
+    buf, starts, ends = _tokens(b" ".join(tokens))
+    vectorised, done = decimals._values(buf, starts, ends)
+    assert done.all(), [t for t, d in zip(tokens, done) if not d][:5]
+    assert vectorised.tobytes() == np.array([float(t) for t in tokens]).tobytes()
 
 
 @settings(max_examples=60, deadline=None)
@@ -80,7 +96,10 @@ def test_printed_doubles_read_back_exactly(values, fmt):
 
 
 def test_edge_tokens():
-    _assert_as_float([b"-0", b"+0", b"-0.0", b"+.5", b".5", b"5.", b"-5.", b"00012.3400", b"0" * 30 + b"1.5",
+    _assert_as_float([b"-0", b"+0", b"-0.0", b"+.5", b".5", b"5.", b"-5.", b"00012.3400", b"0" * 30 + b"1.5", b"1" + b"0" * 24 + b".5",
+                      b"-2" + b"0" * 30 + b"1.25", b"7" * 19, b"7" * 20, b"0." + b"7" * 19, b"0." + b"7" * 20,
+                      b"0.0000077777777777777777", b"-0.00000000000000000001", b"0.000000000000000000011",
+                      b"0.10000000000000000001", b"-0.09999999999999999999", b"0.1000000000000000000000",
                       b"1e5", b"1E-5", b"1e+05", b"1e0000", b"18446744073709551615", b"99999999999999999999",
                       b"1.7976931348623157e308", b"1.7976931348623159e308", b"2.2250738585072014e-308",
                       b"4.9406564584124654e-324", b"2e-324", b"1e400", b"-1e-400", b"123456789012345678.9",

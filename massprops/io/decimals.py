@@ -15,8 +15,8 @@ exponent ``k``; then:
 * ``-25 ≤ k < 0`` otherwise: ``M / 10**-k = (M / 5**-k) · 2**k``, and the
   rounding of a first guess of ``M / 5**-k`` is settled with its exact
   residual in wrapping 64-bit integer arithmetic (see :func:`_quotient`);
-* anything else (more digits, larger exponents, exact ties) goes through
-  Python's ``float``.
+* anything else (more digits, larger exponents) goes through Python's
+  ``float``.
 
 So every value is the correctly rounded one, as ``float`` gives.
 """
@@ -42,6 +42,7 @@ _POW10F = np.array([10.0 ** k for k in range(23)])                       # exact
 _POW10U = np.array([10 ** k for k in range(20)], dtype=np.uint64)
 _POW5U = np.array([5 ** j for j in range(26)], dtype=np.uint64)
 _POW5F = np.array([float(5 ** j) for j in range(26)])                    # exact up to 5**22
+_FEW = 200                                  # tokens float reads quicker than a vectorised pass's fixed cost
 _STRICT = re.compile(rb"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d{1,4})?")
 
 
@@ -161,8 +162,9 @@ def _quotient(mantissa, power5, mantissa_float):
     below 2**63 and wrapping uint64 arithmetic gives it exactly.  ``q0``, its
     upper or its lower neighbour is then the correct rounding as ``2R`` lies
     within or beyond ``± 5**j`` (``4R`` below a power of two, where the gap
-    halves); exact ties and guesses more than one step off are left undone.
-    Scaling by ``2**-j`` is exact (the results are far from the subnormals).
+    halves); guesses more than one step off are left undone.  No exact tie
+    can occur: with ``t ≤ 0`` it would need ``M = (2m+1) · 5**j · 2**(t-1)``,
+    not an integer.  Scaling by ``2**-j`` is exact (far from the subnormals).
     """
     bits = (mantissa_float / _POW5F[power5]).view(np.uint64)
     shift = np.uint64(1075) - (bits >> np.uint64(52))
@@ -174,7 +176,7 @@ def _quotient(mantissa, power5, mantissa_float):
     twice = ((mantissa << shift) - significand).view(np.int64) << 1
     below = twice << floor
     unit = unit.view(np.int64)
-    done = (shift <= np.uint64(63)) & (twice < 3 * unit) & (below > -3 * unit) & (twice != unit) & (below != -unit)
+    done = (shift <= np.uint64(63)) & (twice < 3 * unit) & (below > -3 * unit)
     bits += twice > unit
     bits -= below < -unit
     bits -= power5.astype(np.uint64) << np.uint64(52)
@@ -198,7 +200,7 @@ def _values(buf, starts, ends):
     mantissa, after, negative, readable, _ = _mantissas(buf, starts, ends)
     exponent = -after
     retry = np.flatnonzero(~readable & (ends - starts <= 24) & (ends - starts >= 3))
-    if retry.size:
+    if retry.size > _FEW:                         # (a few are quicker through float)
         m, e, n, r = _exponents(buf, starts[retry], ends[retry])
         mantissa[retry], exponent[retry], negative[retry], readable[retry] = m, e, n, r
     values, done = _to_float(mantissa, exponent)
