@@ -125,6 +125,30 @@ def best(argv, repeat, env=None):
     return min(measure(argv, env) for _ in range(repeat))
 
 
+def interleaved(commands, repeat):
+    """The fastest run of each command, the commands taking turns ``repeat`` times.
+
+    This machine is shared and its speed drifts over seconds; taking turns
+    gives every command the same mix of fast and slow moments, so the ratios
+    hold better than the absolute times.
+
+    Parameters
+    ----------
+    commands : dict
+        ``{name: (argv, env, runs per turn)}``.
+
+    Returns
+    -------
+    dict
+        ``{name: (wall s, peak MiB)}`` of each command's fastest run.
+    """
+    runs = {name: [] for name in commands}
+    for _ in range(repeat):
+        for name, (argv, env, per_turn) in commands.items():
+            runs[name] += [measure(argv, env) for _ in range(per_turn)]
+    return {name: min(found) for name, found in runs.items()}
+
+
 def massprops_cmd(path, *options):
     """The installed ``massprops`` script (what users run), else ``python -m massprops``."""
     import shutil
@@ -143,9 +167,10 @@ def _seconds(x):
 def end_to_end(quick):
     path = icosphere_stl()
     repeat = 2 if quick else 3
-    ours = best(massprops_cmd(path, "--format", "json"), repeat)
-    one = best(massprops_cmd(path, "--format", "json"), repeat, env={"MASSPROPS_THREADS": "1"})
-    theirs = best(trimesh_cmd(path), 1 if quick else 2)
+    command = massprops_cmd(path, "--format", "json")
+    found = interleaved({"ours": (command, None, 2), "one": (command, {"MASSPROPS_THREADS": "1"}, 1),
+                         "theirs": (trimesh_cmd(path), None, 1)}, repeat)
+    ours, one, theirs = found["ours"], found["one"], found["theirs"]
     size = os.path.getsize(path) / MIB
     rows = ["| mesh | triangles | file MiB | massprops s | massprops peak MiB | 1 thread s | trimesh s "
             "| trimesh peak MiB | speed-up | memory ratio |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
@@ -198,10 +223,11 @@ STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import masspr
 
 def startup(quick):
     path = box_stl()
-    repeat = 5 if quick else 15
-    ours = best(massprops_cmd(path), repeat)[0]
-    numpy_only = best([sys.executable, "-c", "import numpy"], repeat)[0]
-    bare = best([sys.executable, "-c", "pass"], repeat)[0]
+    repeat = 10 if quick else 25
+    found = interleaved({"ours": (massprops_cmd(path), None, 1),
+                         "numpy": ([sys.executable, "-c", "import numpy"], None, 1),
+                         "bare": ([sys.executable, "-c", "pass"], None, 1)}, repeat)
+    ours, numpy_only, bare = found["ours"][0], found["numpy"][0], found["bare"][0]
     heavy = subprocess.run([sys.executable, "-c", STARTUP_PROBE, path], capture_output=True,
                            text=True).stdout.strip()
     return "\n".join([

@@ -164,7 +164,10 @@ def representatives(n, hash_rows, keys=None):
     representative = np.empty(n, dtype=index_type)
     representative[leaders] = leader_of
     del leaders, leader_of
-    return representative[local]
+    for begin in range(0, n, _BLOCK):          # in place, block by block: no third full-size array
+        block = local[begin:begin + _BLOCK]
+        block[:] = representative[block]
+    return local
 
 
 def _block_pass(starts, hash_rows, keys, local):

@@ -37,6 +37,7 @@ __all__ = ["coordinate_resolution", "VertexColumns", "vertex_columns", "with_inp
 # The storage step (ulp) above which a warning says the input's precision limits
 # the result, relative to the part's largest extent.
 WARN_RELATIVE_STEP = 1e-5
+_BLOCK = 1 << 16                  # vertices per pass of the distance bound
 
 
 class VertexColumns(NamedTuple):
@@ -85,9 +86,13 @@ def _largest_squared_distance(columns, center):
     That order is the one ``numpy.einsum("ij,ij->i", d, d)`` used on the rows
     ``d = x − c`` before (its paired accumulation), so the values are unchanged.
     """
-    offset = columns - np.asarray(center, dtype=float)[:, None]
-    offset *= offset
-    return float(((offset[0] + offset[2]) + offset[1]).max())
+    center = np.asarray(center, dtype=float)[:, None]
+    largest = 0.0
+    for start in range(0, columns.shape[1], _BLOCK):     # blocks: no full-size temporaries on huge meshes
+        offset = columns[:, start:start + _BLOCK] - center
+        offset *= offset
+        largest = max(largest, float(((offset[0] + offset[2]) + offset[1]).max()))
+    return largest
 
 
 def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):

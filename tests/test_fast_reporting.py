@@ -53,6 +53,23 @@ def test_bounding_box_gives_the_per_vertex_extremes(seed):
 @given(seeds)
 def test_largest_squared_distance_is_the_rounded_per_vertex_maximum(seed):
     points, center = _random_points(seed)
+    _check_largest_squared_distance(points, center)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seeds, st.integers(1, 64))
+def test_largest_squared_distance_is_the_same_in_blocks(seed, block):
+    import massprops.resolution as resolution
+    points, center = _random_points(seed)
+    original = resolution._BLOCK
+    resolution._BLOCK = block          # many small blocks, the last one partial
+    try:
+        _check_largest_squared_distance(points, center)
+    finally:
+        resolution._BLOCK = original
+
+
+def _check_largest_squared_distance(points, center):
     expected = max((dx * dx + dz * dz) + dy * dy for dx, dy, dz in (points - center).tolist())
     got = _largest_squared_distance(np.ascontiguousarray(points.T), center)
     assert got == expected

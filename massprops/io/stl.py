@@ -7,6 +7,7 @@ parsed with Python's correctly rounded ``float``.
 
 from __future__ import annotations
 
+import mmap
 import os
 import re
 
@@ -18,7 +19,8 @@ from . import register_format
 
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 _HEADER = 84
-_READ_BLOCK = 1 << 16                      # records per read: 3.3 MB
+_BLOCK = 1 << 18                           # records per pass: 13 MB of the file
+_DROP = getattr(mmap, "MADV_DONTNEED", None)
 _VERTEX = re.compile(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)")
 
 
@@ -53,17 +55,22 @@ def _read_binary(path, count):
 def _binary_corners(path, count):
     """The corners (3·count, 3) float32 of a binary STL, with -0.0 made +0.0 (as welding needs).
 
-    Read block by block, so only the corners (36 of every 50 bytes) are held.
+    The file is mapped, not read: strided passes copy the corners (36 of
+    every 50 bytes) straight from the page cache.  Pages already copied are
+    dropped from the mapping as it goes, so only the corners stay resident.
     """
     corners = np.empty((count, 3, 3), dtype=np.float32)
-    buffer = np.empty(min(count, _READ_BLOCK), dtype=_RECORD)       # reused: no fresh pages per block
-    with open(path, "rb") as f:
-        f.seek(_HEADER)
-        for start in range(0, count, _READ_BLOCK):
-            records = buffer[:min(_READ_BLOCK, count - start)]
-            if f.readinto(records) != records.nbytes:
-                raise MeshFormatError("the file ended early", path=path, fix="re-export the mesh")
-            np.add(records["corners"], np.float32(0.0), out=corners[start:start + records.shape[0]])
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
+        if len(mapped) < _HEADER + count * _RECORD.itemsize:
+            raise MeshFormatError("the file ended early", path=path, fix="re-export the mesh")
+        records = np.frombuffer(mapped, dtype=_RECORD, count=count, offset=_HEADER)
+        for start in range(0, count, _BLOCK):
+            stop = min(count, start + _BLOCK)
+            np.add(records["corners"][start:stop], np.float32(0.0), out=corners[start:stop])
+            if _DROP is not None:
+                done = (_HEADER + stop * _RECORD.itemsize) // mmap.PAGESIZE * mmap.PAGESIZE
+                mapped.madvise(_DROP, 0, done)
+        del records                   # the map cannot close while an array views it
     return corners.reshape(-1, 3)
 
 
