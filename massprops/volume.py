@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshGeometryError, OptionError
-from .integrate import _DET_BOUND, U as _U, integrate, reference_frame
+from .face_terms import DET_BOUND as _DET_BOUND
+from .integrate import U as _U, integrate, reference_frame
 from .mesh import face_components, group_ids
 from .properties import MassProperties
 

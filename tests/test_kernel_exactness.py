@@ -11,11 +11,13 @@ plates seen edge-on (double-double), faces through the reference point
 from fractions import Fraction
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
 from massprops import solids
-from massprops.integrate import _refine_hard_faces, integrate
+from massprops.face_terms import _refine_hard_faces
+from massprops.integrate import integrate
 from massprops.integrate_dd import DET_ERROR, det_double_double
 
 
@@ -132,9 +134,9 @@ def _corners(faces_points):
 
 def _float_determinants(corners):
     """The kernel's plain-float det and bound of faces given as (axis, corner, face)."""
-    import massprops.integrate as kernel
+    import massprops.face_terms as kernel
     h = corners.shape[2]
-    w = kernel._views(np.empty(kernel._WORKSPACE_ROWS * h), h)
+    w = kernel.workspace(np.empty(kernel.WORKSPACE_ROWS * h), h)
     w["points"][:] = corners
     det, _, bound, area = w["summed"][:4]
     kernel._cross_product(w, area)
@@ -168,7 +170,7 @@ def test_refined_faces_within_bound(seed, width, lean):
 
 def test_rotation_spares_most_slivers_the_double_double(monkeypatch):
     """A fine prism's slivers are mostly certified in plain float by a cyclic rotation."""
-    import massprops.integrate as kernel
+    import massprops.face_terms as kernel
     vertices, faces = _posed(solids.regular_prism(2000, 1.0, 3.0), 11, (2.0, -1.0, 0.5))
     rotated = assert_bounds_cover(vertices, faces)
     monkeypatch.setattr(kernel, "_best_rotation", lambda corners, det, bound: (det, bound))
@@ -209,3 +211,12 @@ def test_radius_and_frame_match_the_scaled_coordinates():
         scaled = [(Fraction(float(x)) - Fraction(float(r))) / Fraction(2) ** scale_exp
                   for row, r in zip(axes, reference) for x in row]
         assert Fraction(radius) == max(abs(y) for y in scaled)
+
+
+@pytest.mark.parametrize("exponent", [-1000, -1040, -1070])
+def test_parts_below_2_to_the_minus_1000_scale_exactly(exponent):
+    """The power-of-two scale factor itself would overflow: the scaling must still be exact."""
+    mesh = solids.tetrahedron()
+    vertices = np.ldexp(mesh.vertices, exponent)
+    moments = assert_bounds_cover(vertices, mesh.faces)
+    assert moments.scale_exp < -990 and moments.det_sum != 0
