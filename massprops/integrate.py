@@ -110,11 +110,42 @@ def _reference_coordinate(low, high):
     return 0.0                                           # the box is within 2 extents of the origin
 
 
+def _short_centre(low, high):
+    """A number near (low + high) / 2 with at most ~10 significant bits (a multiple of 2**(k-8), extent ≤ 2**k)."""
+    extent = high - low
+    if not extent > 0 or not math.isfinite(extent):
+        return low
+    k = _ceil_log2(extent)
+    return math.ldexp(round(math.ldexp(low * 0.5 + high * 0.5, 8 - k)), k - 8)
+
+
+def _subtracts_exactly(row, shift):
+    """Whether ``x − shift`` is exact for every x of ``row``: Knuth's TwoSum error is zero for each.
+
+    In blocks, so a huge mesh needs no full-size temporaries.
+    """
+    for start in range(0, row.size, _EXACT_CHECK_BLOCK):
+        x = row[start:start + _EXACT_CHECK_BLOCK]
+        difference = x - shift
+        back = difference - x                            # TwoSum(x, −shift): the rounding error of
+        error = x - (difference - back)                  # the difference is (x − (d − b)) + (−shift − b),
+        error += -shift - back                           # zero exactly when the difference is exact
+        if error.any():                                  # (NaN, from an overflow, counts as inexact)
+            return False
+    return True
+
+
+_EXACT_CHECK_BLOCK = 1 << 16
+
+
 def reference_frame(vertices):
     """An exact shift and power-of-two scale that bring the part near the origin at unit size.
 
-    The shift is chosen per axis near the bounding box (see
-    :func:`_reference_coordinate`) so that ``x − reference`` is exact; the scale
+    The shift is chosen per axis: the box's centre (a short number near it)
+    where ``x − centre`` is exact for every coordinate, which is checked — a
+    reference inside the part leaves few faces whose plane passes near it —
+    else a point of the box that is provably exact for any coordinates in it
+    (:func:`_reference_coordinate`); either way ``x − reference`` is exact.  The scale
     ``2**scale_exp`` is the smallest power of two at least the largest extent.
 
     Returns
@@ -139,6 +170,12 @@ def _frame(axes):
     low = axes.min(axis=1)
     high = axes.max(axis=1)
     reference = np.array([_reference_coordinate(float(lo), float(hi)) for lo, hi in zip(low, high)])
+    for axis, (lo, hi) in enumerate(zip(low.tolist(), high.tolist())):
+        # The box's centre leaves fewer faces whose plane passes near the reference
+        # (hard determinants) and less cancellation: take it wherever it subtracts exactly.
+        centre = _short_centre(lo, hi)
+        if centre != reference[axis] and _subtracts_exactly(axes[axis], centre):
+            reference[axis] = centre
     largest = float((high - low).max())
     scale_exp = _ceil_log2(largest) if largest > 0 else 0
     radius = float(np.maximum(np.abs(high - reference), np.abs(low - reference)).max())

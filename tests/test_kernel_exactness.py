@@ -220,3 +220,51 @@ def test_parts_below_2_to_the_minus_1000_scale_exactly(exponent):
     vertices = np.ldexp(mesh.vertices, exponent)
     moments = assert_bounds_cover(vertices, mesh.faces)
     assert moments.scale_exp < -990 and moments.det_sum != 0
+
+
+coordinates = st.one_of(
+    st.floats(-1e3, 1e3, allow_nan=False, width=32).map(float),      # binary STL values
+    st.floats(-1e3, 1e3, allow_nan=False),
+    st.floats(-1e-300, 1e-300, allow_nan=False),                     # tiny values beside large ones
+    st.floats(1e8, 1e8 + 4, allow_nan=False))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(coordinates, min_size=2, max_size=40), st.sampled_from([1, 3, 1 << 16]))
+def test_the_frame_shift_is_exact_for_every_coordinate(values, block):
+    """Whatever reference the frame takes (the box's centre or the safe fallback), x − reference is exact."""
+    import massprops.integrate as kernel
+    from massprops.integrate import _frame
+    original = kernel._EXACT_CHECK_BLOCK
+    kernel._EXACT_CHECK_BLOCK = block
+    try:
+        axes = np.array([values, values[::-1], values[1:] + values[:1]], dtype=np.float64)
+        reference, _, _ = _frame(axes)
+    finally:
+        kernel._EXACT_CHECK_BLOCK = original
+    for row, r in zip(axes, reference.tolist()):
+        for x in row.tolist():
+            assert Fraction(x - r) == Fraction(x) - Fraction(r)
+
+
+def test_a_float32_part_near_the_origin_is_shifted_to_its_centre():
+    """Its coordinates are coarse enough that the centre subtracts exactly: fewer hard faces than at the origin."""
+    from massprops.integrate import _frame
+    axes = np.array([[-1.0, 3.0, 0.1], [-2.0, 2.0, 1.5], [0.25, 0.5, 0.75]], dtype=np.float32).astype(np.float64)
+    reference, _, _ = _frame(axes)
+    assert reference.tolist() == [1.0, 0.0, 0.5]
+    axes[0, 2] = 1e-300                                       # a double far finer than the box: the centre is inexact
+    reference, _, _ = _frame(axes)
+    assert reference[0] == 0.0
+
+
+def test_slivers_around_the_centre_need_no_double_double():
+    """A fine float32 prism beside the origin (outside it): none of its faces' planes pass near the box's centre.
+
+    With the origin as reference, the faces seen edge-on from it (tens of them) needed double-double.
+    """
+    mesh = solids.regular_prism(500, 1.0, 2.0)
+    for offset in ([1.6, 0.0, 0.0], [2.5, -1.8, 1.2]):
+        vertices = (mesh.vertices + offset).astype(np.float32).astype(np.float64)
+        moments = assert_bounds_cover(vertices, mesh.faces)
+        assert moments.refined_faces == 0 and moments.reference[0] != 0.0
