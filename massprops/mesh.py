@@ -390,9 +390,11 @@ def check_mesh(mesh, path=None):
     components = start(face_components, faces, vertices.shape[0],
                        threaded=PARALLEL_ABOVE < faces.shape[0] <= _THREADED_CHECK_UP_TO)
     representative, direction, balance = _balance(faces, vertices.shape[0])
-    labels, n_shells = components()
     if np.any(balance):
+        components()                  # let the shells' thread finish before refusing
         _refuse_unbalanced(faces, _uses(representative), balance, path)
+    del representative, direction, balance    # a balanced mesh needs them no more: free them before the shells
+    labels, n_shells = components()
     outside = 0
     if n_shells > 1:
         outside = _inward_shells_outside(vertices, faces, labels, n_shells)
