@@ -27,7 +27,8 @@ import numpy as np
 
 from .errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
 from .integrate import U, integrate
-from .mesh import TriangleMesh, _edge_balance, check_mesh, distinct_faces, face_components
+from .mesh import TriangleMesh, check_mesh, distinct_faces
+from .topology import edge_balance, face_components
 from .properties import MassProperties
 
 __all__ = ["shell_moments", "shell_mass_properties"]
@@ -96,7 +97,7 @@ def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None
         check_mesh(mesh, path=path)        # finite coordinates, valid indices
     except (OpenMeshError, WindingError):
         pass                               # a sheet need not bound a solid
-    uses, _ = _edge_balance(mesh.faces, mesh.vertices.shape[0])
+    uses, _ = edge_balance(mesh.faces, mesh.vertices.shape[0])
     boundary_edges = int(np.count_nonzero(uses == 1))
     moments = shell_moments(mesh.vertices, mesh.faces, thickness, order=order)
     if not moments.det_sum > moments.det_error:

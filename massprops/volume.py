@@ -27,9 +27,10 @@ import numpy as np
 
 from .errors import MeshGeometryError, OptionError
 from .face_terms import DET_BOUND as _DET_BOUND
+from .grouping import group_ids
 from .integrate import U as _U, integrate, reference_frame
-from .mesh import face_components, group_ids
 from .properties import MassProperties
+from .topology import face_components
 
 __all__ = ["VolumeMesh", "CELL_FACES", "parse_density_map", "cell_densities", "volume_mass_properties"]
 

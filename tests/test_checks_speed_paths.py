@@ -21,9 +21,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops import grouping, mesh as mesh_module, solids
+from massprops import grouping, solids, topology
 from massprops.errors import MassPropsError
-from massprops.mesh import TriangleMesh, _edge_representatives, check_mesh, face_components
+from massprops.mesh import TriangleMesh, check_mesh
+from massprops.topology import _edge_representatives, face_components
 
 # Every way the edge grouping and the shells can run (block sizes, kept-hash and sort limits).
 _PATHS = {
@@ -40,7 +41,7 @@ _PATHS = {
 def _path(settings_):
     with pytest.MonkeyPatch.context() as patch:
         for name, value in settings_.items():
-            patch.setattr(grouping if name == "_SORT_UP_TO" else mesh_module, name, value)
+            patch.setattr(grouping if name == "_SORT_UP_TO" else topology, name, value)
         yield
 
 

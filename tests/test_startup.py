@@ -19,7 +19,8 @@ from hypothesis import given, settings, strategies as st
 
 from massprops import grouping, integrate, solids
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh, _edge_balance, check_mesh, face_components, group_ids
+from massprops.mesh import TriangleMesh, check_mesh, group_ids
+from massprops.topology import edge_balance, face_components
 
 HEAVY = ("trimesh", "scipy", "meshio", "matplotlib", "dask")
 
@@ -122,7 +123,7 @@ def test_large_mesh_checks_count_shells_and_find_a_flipped_face():
     assert count == 2 and len(set(labels[:half])) == 1 and set(labels[:half]).isdisjoint(labels[half:])
     faces = mesh.faces.copy()
     faces[12345] = faces[12345, ::-1]
-    uses, balance = _edge_balance(faces, mesh.vertices.shape[0])
+    uses, balance = edge_balance(faces, mesh.vertices.shape[0])
     assert np.count_nonzero(balance) == 3 and np.all(uses % 2 == 0)
 
 

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from massprops import solids
 from massprops.compute import mass_properties
 from massprops.mesh import TriangleMesh
 
