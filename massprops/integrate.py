@@ -101,8 +101,7 @@ def _reference_coordinate(low, high):
         # Every |x| ≥ 2**k, so x is a multiple of 2**(k-52); the shift is a
         # multiple of 2**(k-8); the difference, a multiple of 2**(k-52) below
         # 2**(k+1) in size, is representable.
-        centre = low * 0.5 + high * 0.5
-        return math.ldexp(round(math.ldexp(centre, 8 - k)), k - 8)
+        return _short_centre(low, high)
     if 0 < low and high <= 2 * low:
         return low                                       # Sterbenz: x/2 ≤ low ≤ x
     if high < 0 and low >= 2 * high:
