@@ -213,16 +213,31 @@ def _best_rotation(corners, det, bound):
     det, bound : ndarray, shape (h,)
         From the corners as given; the smaller bound wins.  Changed in place.
     """
-    following = np.take(corners, [1, 2, 0], axis=0)             # (b, c, a)
-    lengths = np.square(following - corners).sum(axis=1)         # |b − a|², |c − b|², |a − c|²
-    start = np.argmin(lengths, axis=0)
-    # Needles whose shortest edge does not already start the face.
-    needles = np.flatnonzero((start != 0) & (lengths.max(axis=0) > 4.0 * lengths.min(axis=0)))
+    h = corners.shape[2]
+    squares = np.empty((3, 3, h))                                 # (edge, axis, face)
+    np.subtract(corners[1:], corners[:2], out=squares[:2])        # b − a, c − b
+    np.subtract(corners[0], corners[2], out=squares[2])           # a − c
+    np.square(squares, out=squares)
+    lengths = squares[:, 0]
+    lengths += squares[:, 1]
+    lengths += squares[:, 2]
+    ab, bc, ca = lengths                                          # squared lengths
+    shortest = np.minimum(np.minimum(ab, bc), ca)
+    needle = np.maximum(np.maximum(ab, bc), ca) > 4.0 * shortest
+    # Needles whose shortest edge does not already start the face (the first shortest wins a tie):
+    # at b, rotate to (b, c, a); at c, to (c, a, b).
+    groups = (np.flatnonzero(needle & (bc == shortest) & (bc < ab)),
+              np.flatnonzero(needle & (ca == shortest) & (ca < ab) & (ca < bc)))
+    needles = np.concatenate(groups)
     if not needles.size:
         return det, bound
     w = workspace(np.empty(WORKSPACE_ROWS * needles.size), needles.size)
-    np.copyto(w["points"], np.take(following[:, :, needles], [1, 2, 0], axis=0))   # (c, a, b)
-    np.copyto(w["points"], following[:, :, needles], where=start[needles] == 1)
+    start = 0
+    for turn, faces in zip((1, 2), groups):
+        chosen = np.take(corners, faces, axis=2)
+        for corner in range(3):
+            w["points"][corner, :, start:start + faces.size] = chosen[(corner + turn) % 3]
+        start += faces.size
     rotated_det, rotated_bound, area = w["summed"][0], w["summed"][1], w["summed"][3]
     _cross_product(w, area)
     _determinant(w, rotated_det, rotated_bound)

@@ -179,6 +179,31 @@ def test_rotation_spares_most_slivers_the_double_double(monkeypatch):
     assert abs(rotated.det_sum - unrotated.det_sum) <= rotated.det_error + unrotated.det_error
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.sampled_from([0, 1, 2]))
+def test_rotation_starts_each_needle_at_its_shortest_edge(seed, turn):
+    """A needle keeps the better of its own bound and the one from its shortest edge's first corner."""
+    from massprops.face_terms import _best_rotation
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-1, 1, size=(48, 3))
+    long_edge = rng.normal(size=(48, 3))
+    b = a + long_edge * rng.uniform(1e-4, 1e-1, size=(48, 1))     # a short edge a→b
+    c = a + long_edge + 1e-3 * rng.normal(size=(48, 3))
+    c[::4] = a[::4] + rng.normal(size=(12, 3))                      # and some ordinary faces
+    points = np.roll(np.stack([a, b, c], axis=1), turn, axis=1)      # the short edge starts at corner `turn`
+    det, bound = _float_determinants(_corners(points))
+    expected_det, expected_bound = det.copy(), bound.copy()
+    for k in range(48):
+        lengths = [np.sum((points[k, (i + 1) % 3] - points[k, i]) ** 2) for i in range(3)]
+        start = int(np.argmin(lengths))
+        if start and max(lengths) > 4 * min(lengths):
+            d, e = _float_determinants(_corners(np.roll(points[k:k + 1], -start, axis=1)))
+            if e[0] < bound[k]:
+                expected_det[k], expected_bound[k] = d[0], e[0]
+    found_det, found_bound = _best_rotation(_corners(points), det, bound)
+    assert np.array_equal(found_det, expected_det) and np.array_equal(found_bound, expected_bound)
+
+
 def test_partial_chunks_and_empty_input():
     mesh = solids.icosphere(2)
     vertices, faces = _posed(mesh, 12, (0.2, 0.3, 0.4))
