@@ -10,10 +10,9 @@ import time
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from . import integrate as _integrate
+from . import core as _core
 from .errors import MassPropsError, OptionError
 from .mesh import TriangleMesh, check_mesh
-from .parallel import PARALLEL_ABOVE, start
 from .properties import MassProperties
 from .resolution import annotate
 
@@ -130,20 +129,8 @@ def checked_moments(mesh, *, path=None, order=2, repair=False):
         from .repair import repair_mesh
         mesh, changes = repair_mesh(mesh)
         warnings += changes
-    # A large mesh is integrated in a second thread while it is checked; the
-    # moments are used only once the checks have passed.
-    threaded = mesh.faces.shape[0] > PARALLEL_ABOVE
-    integrated = start(_integrate.integrate, mesh.vertices, mesh.faces, order=order, threaded=threaded)
-    try:
-        checks = check_mesh(mesh, path=path)
-    except MassPropsError:
-        if threaded:
-            try:
-                integrated()          # let the thread finish; a refused mesh may fail in any way there
-            except Exception:         # noqa: BLE001
-                pass
-        raise
-    moments = integrated()
+    checks = check_mesh(mesh, path=path)
+    moments = _core.integrate(mesh.vertices, mesh.faces, order=order)
     orientation = "outward"
     if moments.det_sum < 0:
         moments = moments.negated()

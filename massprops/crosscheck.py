@@ -3,7 +3,7 @@
 Two views: ``raw`` is what a trimesh user gets (trimesh integrates about the
 origin), ``fair`` is trimesh on the same mesh shifted exactly to near its own
 bounding-box centre (massprops's reference point, see
-:func:`massprops.integrate.reference_frame`), so only the integration itself
+:func:`massprops.core.reference_frame`), so only the integration itself
 is compared.  Far from the origin, at ``ratio = offset / size``, the raw sums
 cancel: each face's term is ``ratio`` times larger than the part's total (one
 factor lost in the volume), and the inertia about the center of mass is then
@@ -82,7 +82,7 @@ def trimesh_comparison(path, result, *, mesh=None):
         ``offset`` and ``size`` (bounding-box centre's distance from the
         origin, largest extent; mesh units).
     """
-    from .integrate import reference_frame
+    from .core import reference_frame
     from .io import read
 
     mesh = mesh or read(path)

@@ -5,10 +5,9 @@ mesh's own (local) frame and ``faces`` (m, 3) integer indices, wound so that
 the right-hand normal points out of the solid.  Vertices are welded by exact
 coordinates only: massprops never merges points that are merely close.
 
-Grouping equal keys (welding vertices, pairing edges, finding duplicate faces)
-uses one mechanism, :mod:`massprops.grouping`: exact, vectorised, and linear in
-the number of keys, so a million-triangle mesh needs no sort.  Edge matching
-and shells live in :mod:`massprops.topology`.
+Welding, edge matching, shells and duplicate faces are done by the compiled
+core (:mod:`massprops.core`); this module keeps the container and the policy
+of the checks.
 """
 
 from __future__ import annotations
@@ -17,12 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .core import distinct_faces, edge_summary, face_groups, shell_determinants, shells, weld_corners
 from .errors import MeshGeometryError, OpenMeshError, WindingError
-from .grouping import first_of_groups, group_ids, labels_of, point_representatives
-from .topology import face_components, match_edges, uses as _uses
-from .parallel import PARALLEL_ABOVE, start
 
-__all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
+__all__ = ["TriangleMesh", "MeshChecks", "check_mesh", "distinct_faces"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,31 +47,26 @@ class TriangleMesh:
 
         Parameters
         ----------
-        triangles : ndarray, shape (m, 3, 3)
-            Corner coordinates of each triangle, local frame.
+        triangles : ndarray, shape (m, 3, 3), float32 or float64
+            Corner coordinates of each triangle, local frame; float32 values
+            are welded on their own bits and widened to float64 exactly.
+        source_dtype : numpy dtype, optional
+            The precision the file stored (default: the array's).
         """
         triangles = np.asarray(triangles)
-        dtype = np.dtype(source_dtype or triangles.dtype)
-        # One copy that also turns -0.0 into +0.0, so equal values have equal bits.
-        return cls.from_corners(np.add(triangles, 0.0, dtype=np.float32 if triangles.dtype == np.float32
-                                       else np.float64).reshape(-1, 3), source_dtype=dtype)
+        vertices, faces = weld_corners(triangles)
+        return cls(vertices, faces, np.dtype(source_dtype or triangles.dtype))
 
     @classmethod
     def from_corners(cls, corners, *, source_dtype=None):
-        """Weld consecutive triangle corners, taking ownership of the array (no copy).
+        """Weld consecutive triangle corners.
 
         Parameters
         ----------
-        corners : ndarray, shape (3m, 3), float32 or float64, C-contiguous
-            Corners of triangle k at rows 3k, 3k+1, 3k+2, with no ``-0.0``
-            (add ``0.0`` first); float32 values are welded on their own bits
-            and widened to float64 exactly.
+        corners : ndarray, shape (3m, 3), float32 or float64
+            Corners of triangle k at rows 3k, 3k+1, 3k+2.
         """
-        dtype = np.dtype(source_dtype or corners.dtype)
-        is_first, representative = first_of_groups(point_representatives(corners))
-        vertices = corners[np.flatnonzero(is_first)].astype(np.float64)
-        del corners                   # the caller passed it to us: free it before the labels
-        return cls(vertices, labels_of(is_first, representative).reshape(-1, 3), dtype)
+        return cls.from_triangles(corners, source_dtype=source_dtype)
 
     @property
     def triangles(self):
@@ -107,15 +99,9 @@ class MeshChecks:
         return dict(self.__dict__)
 
 
-# Above this many faces the shells are found after the edges, not beside them, to bound the peak memory.
-_THREADED_CHECK_UP_TO = 1 << 22
-
-
 def signed_volumes_by_shell(vertices, faces, shell_labels, n_shells):
-    """Six times the signed volume enclosed by each shell (plain float64)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    det = np.einsum("ij,ij->i", a, np.cross(b - a, c - a))
-    return np.bincount(shell_labels, weights=det, minlength=n_shells)
+    """Six times the signed volume enclosed by each shell (the integration frame's scaled units; signs matter)."""
+    return shell_determinants(vertices, faces, shell_labels, n_shells)[0]
 
 
 def winding_number(point, triangles):
@@ -162,15 +148,10 @@ def check_mesh(mesh, path=None):
         _refuse_non_finite(vertices, faces, path)
     degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
                                       | (faces[:, 2] == faces[:, 0])))
-    # Shells are found in a second thread while the edges are matched.
-    components = start(face_components, faces, vertices.shape[0],
-                       threaded=PARALLEL_ABOVE < faces.shape[0] <= _THREADED_CHECK_UP_TO)
-    representative, direction, balance = match_edges(faces, vertices.shape[0])
-    if np.any(balance):
-        components()                  # let the shells' thread finish before refusing
-        _refuse_unbalanced(faces, _uses(representative), balance, path)
-    del representative, direction, balance    # a balanced mesh needs them no more: free them before the shells
-    labels, n_shells = components()
+    edges = edge_summary(faces, vertices.shape[0])
+    if not edges.balanced:
+        _refuse_unbalanced(faces, edges, path)
+    labels, n_shells = shells(faces, vertices.shape[0])
     outside = 0
     if n_shells > 1:
         outside = _inward_shells_outside(vertices, faces, labels, n_shells)
@@ -195,27 +176,15 @@ def _refuse_non_finite(vertices, faces, path):
             fix="re-export the mesh; non-finite coordinates cannot be repaired")
 
 
-def distinct_faces(faces):
-    """Indices (ascending) of the first face of each set of vertices: duplicates left out."""
-    _, first = group_ids(np.sort(faces, axis=1).astype(np.uint64))
-    return np.sort(first)
-
-
-def _duplicate_faces(faces):
-    return faces.shape[0] - distinct_faces(faces).size
-
-
-def _refuse_unbalanced(faces, uses, balance, path):
-    duplicates = _duplicate_faces(faces)
-    odd = int(np.count_nonzero(uses % 2))
+def _refuse_unbalanced(faces, edges, path):
+    duplicates = face_groups(faces).duplicates
     if duplicates:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
                             fix="remove the duplicates, or pass --repair")
-    if odd:
-        raise OpenMeshError(f"mesh is open: {odd} boundary edges", path=path,
+    if edges.odd:
+        raise OpenMeshError(f"mesh is open: {edges.odd} boundary edges", path=path,
                             fix="close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS")
-    flipped = int(np.count_nonzero(balance))
-    raise WindingError(f"faces are wound inconsistently: {flipped} edges are traversed twice in the same "
+    raise WindingError(f"faces are wound inconsistently: {edges.unbalanced} edges are traversed twice in the same "
                        "direction", path=path, fix="pass --repair to orient the faces consistently")
 
 

@@ -81,7 +81,7 @@ def placement_poses(linear, translation, *, path=None):
 def stretched_moments(moments, stretch):
     """Raw moments of the mesh mapped by ``P`` (``x'' = P x'``), exactly up to one rounding each.
 
-    With ``y`` the scaled coordinates of :class:`massprops.integrate.Moments`,
+    With ``y`` the scaled coordinates of :class:`massprops.core.Moments`,
     ``Σdet ↦ |det P| Σdet``, ``first ↦ |det P| P first``, ``second ↦
     |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
     rationals).  The area is not a function of the moments; it is set by the

@@ -12,7 +12,7 @@ Per triangle (a, b, c) of area A, ``s = a + b + c``::
 
     ∫ 1 dA = A,   ∫ x dA = A s / 3,   ∫ x xᵀ dA = A (s sᵀ + a aᵀ + b bᵀ + c cᵀ) / 12
 
-These are the sums :func:`massprops.integrate.integrate` forms with
+These are the sums :func:`massprops.core.integrate` forms with
 ``measure="area"`` (``2A`` in place of ``det``); scaled by ``3t``, ``4t`` and
 ``5t`` they are exactly the solid sums of a body of volume ``t A`` with those
 moments, so :meth:`MassProperties.from_moments` does the rest as for a solid.
@@ -25,10 +25,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from .core import UNIT_ROUNDOFF as U, edge_summary, integrate, shells
 from .errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
-from .integrate import U, integrate
 from .mesh import TriangleMesh, check_mesh, distinct_faces
-from .topology import edge_balance, face_components
 from .properties import MassProperties
 
 __all__ = ["shell_moments", "shell_mass_properties"]
@@ -41,7 +40,7 @@ def _times(value, error, factor):
 
 
 def shell_moments(vertices, faces, thickness, *, order=2):
-    """The solid-equivalent :class:`massprops.integrate.Moments` of a sheet.
+    """The solid-equivalent :class:`massprops.core.Moments` of a sheet.
 
     Parameters
     ----------
@@ -97,14 +96,14 @@ def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None
         check_mesh(mesh, path=path)        # finite coordinates, valid indices
     except (OpenMeshError, WindingError):
         pass                               # a sheet need not bound a solid
-    uses, _ = edge_balance(mesh.faces, mesh.vertices.shape[0])
-    boundary_edges = int(np.count_nonzero(uses == 1))
+    edges = edge_summary(mesh.faces, mesh.vertices.shape[0])
+    boundary_edges = edges.boundary
     moments = shell_moments(mesh.vertices, mesh.faces, thickness, order=order)
     if not moments.det_sum > moments.det_error:
         raise MeshGeometryError("the surface has zero area", path=path, fix="check the export")
     properties = MassProperties.from_moments(moments, density=density, mass=mass, unit=unit, pose=pose,
                                              path=path)
-    checks = {"closed": boundary_edges == 0 and not np.any(uses % 2), "orientation": "not needed (shell)",
-              "shells": face_components(mesh.faces, mesh.vertices.shape[0])[1], "boundary_edges": boundary_edges,
+    checks = {"closed": boundary_edges == 0 and not edges.odd, "orientation": "not needed (shell)",
+              "shells": shells(mesh.faces, mesh.vertices.shape[0], labels=False)[1], "boundary_edges": boundary_edges,
               "duplicate_faces": 0, "shell_thickness": thickness}
     return properties, checks, warnings

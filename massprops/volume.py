@@ -12,7 +12,7 @@ gives 6 tetrahedra, a wedge 3, a pyramid 2).
 
 Integrating, exactly: a positive tetrahedron is the signed sum of the cones
 from the reference point over its four outward faces, so a cell of density ρ
-contributes ρ times the cone integrals of :func:`massprops.integrate.integrate`
+contributes ρ times the cone integrals of :func:`massprops.core.integrate`
 over its faces.  A face shared by two cells of equal density appears twice,
 once each way: the pair cancels exactly and is dropped, so a body of one
 density is integrated over its boundary surface alone (the surface path,
@@ -25,12 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .core import UNIT_ROUNDOFF as _U, face_groups, integrate, shells, tetra_determinants
 from .errors import MeshGeometryError, OptionError
-from .face_terms import DET_BOUND as _DET_BOUND
-from .grouping import group_ids
-from .integrate import U as _U, integrate, reference_frame
 from .properties import MassProperties
-from .topology import face_components
 
 __all__ = ["VolumeMesh", "CELL_FACES", "parse_density_map", "cell_densities", "volume_mass_properties"]
 
@@ -231,14 +228,9 @@ def _used_points(vmesh, tets, path):
 
 def _cell_volumes(points, tets, cell, n_cells):
     """Six times each cell's signed volume (scaled units) and a bound on its error."""
-    reference, scale_exp = reference_frame(points)
-    corner = np.ldexp(points - reference, -scale_exp)[tets]                # (t, 4, 3), exact shift
-    e1, e2, e3 = (corner[:, k] - corner[:, 0] for k in (1, 2, 3))
-    p = e2[:, [1, 2, 0]] * e3[:, [2, 0, 1]]
-    q = e2[:, [2, 0, 1]] * e3[:, [1, 2, 0]]
-    det = np.einsum("ij,ij->i", e1, p - q)
-    # Shewchuk's orient3d bound per tetrahedron, plus the (≤ 6-term) sum per cell.
-    bound = _DET_BOUND * np.einsum("ij,ij->i", np.abs(e1), np.abs(p) + np.abs(q)) + 7 * _U * np.abs(det)
+    det, bound = tetra_determinants(points, tets)
+    # Each tetrahedron's bound, plus the (≤ 6-term) sum per cell: γ5 of Σ|det| ≤ 7u|det| per term.
+    bound = bound + 7 * _U * np.abs(det)
     return (np.bincount(cell, weights=det, minlength=n_cells),
             np.bincount(cell, weights=bound, minlength=n_cells) * (1 + 8 * _U))
 
@@ -288,7 +280,8 @@ def _paired_faces(tets, cell, rho, path):
     # A face with a repeated node has zero cone integrals: drop it exactly.
     proper = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
     faces, face_cell = faces[proper], face_cell[proper]
-    labels, first = group_ids(np.sort(faces, axis=1).astype(np.uint64))
+    groups = face_groups(faces)
+    labels, first = groups.labels, groups.first
     count = np.bincount(labels)
     a, b, c = faces.T
     parity = ((a > b).astype(np.int64) + (a > c) + (b > c)) & 1
@@ -353,7 +346,7 @@ def volume_mass_properties(vmesh, *, density=None, mass=None, unit=None, pose=No
     if reoriented:
         warnings.append(f"reoriented {reoriented} inverted cells (their node order was mirrored)")
     checks = {"closed": True, "orientation": "cells positive" + (", some reoriented" if reoriented else ""),
-              "shells": face_components(surface, points.shape[0])[1], "boundary_edges": 0,
+              "shells": shells(surface, points.shape[0], labels=False)[1], "boundary_edges": 0,
               "cells": vmesh.n_cells, "cell_types": vmesh.cell_types(), "tetrahedra": int(tets.shape[0]),
               "inverted_cells": reoriented, "degenerate_cells": 0, "refined_faces": moments.refined_faces,
               "density": "per cell" if rho is not None else "uniform"}

@@ -94,7 +94,7 @@ def test_units_density_and_mass(runner, bracket):
 
 
 def test_only_volume_forms_no_second_moments(runner, bracket, monkeypatch):
-    import massprops.integrate as integrate
+    import massprops.core as integrate
     orders = []
     real = integrate.integrate
     monkeypatch.setattr(integrate, "integrate", lambda *a, **k: orders.append(k.get("order")) or real(*a, **k))

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from massprops.errors import MeshGeometryError
-from massprops.integrate import Moments
+from massprops.core import Moments
 from massprops.properties import MassProperties, unit_factor
 
 _U = 2.0 ** -53

@@ -71,18 +71,3 @@ def test_glb_cli(runner, tmp_path):
     trimesh.Trimesh(solids.box((1.0, 2.0, 3.0)).vertices, solids.box().faces, process=False).export(path)
     result = runner.invoke(main, ["props", str(path), "--only", "volume", "--format", "json"])
     assert result.exit_code == 0 and '"volume": 6.0' in result.stdout
-
-
-@pytest.mark.parametrize("block", [1, 7, 1 << 18])
-def test_binary_stl_corners_are_the_file_values_in_any_blocking(tmp_path, monkeypatch, block):
-    from massprops.io import stl
-    rng = np.random.default_rng(block)
-    triangles = rng.normal(size=(50, 3, 3)).astype(np.float32)
-    triangles[::5, 1, 2] = -0.0                     # welding needs -0.0 read as +0.0
-    path = tmp_path / "soup.stl"
-    stl.write_binary(path, triangles)
-    monkeypatch.setattr(stl, "_BLOCK", block)
-    corners = stl._binary_corners(path, 50)
-    raw = np.fromfile(path, dtype=stl._RECORD, offset=84)["corners"].reshape(-1, 3)
-    assert corners.dtype == np.float32 and np.array_equal(corners, raw)
-    assert (corners == 0).sum() >= 10 and not np.signbit(corners[corners == 0]).any()

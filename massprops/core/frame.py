@@ -1,0 +1,103 @@
+"""The integration frame: an exact shift to a point near the part and a power-of-two scale.
+
+Coordinates are integrated as ``y = (x − reference) · 2**-scale_exp``.  Both
+steps must be exact, so the bounds speak about the coordinates as given: the
+reference is chosen per axis so that ``x − reference`` is exact for every
+coordinate, and the scale is a power of two (exact unless a scaled value is
+subnormal, which the kernel's underflow allowance covers).
+
+The reference is the box's centre (a short number near it) where the
+compiled core confirms that subtracting it is exact for every coordinate — a
+reference inside the part leaves few faces whose plane passes near it, and
+little cancellation — else a point of the box that is provably exact for any
+coordinates in it (:func:`_reference_coordinate`).  The scale ``2**scale_exp``
+is the smallest power of two at least the largest extent.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from . import _core
+
+__all__ = ["reference_frame", "Frame", "frame_of"]
+
+
+def _ceil_log2(x):
+    mantissa, exponent = math.frexp(x)
+    return exponent - 1 if mantissa == 0.5 else exponent
+
+
+def _reference_coordinate(low, high):
+    """A shift for one axis such that ``x − shift`` is exact for every float x in [low, high]."""
+    extent = high - low
+    if not extent > 0:
+        return low
+    k = _ceil_log2(extent)                               # 2**(k-1) < extent ≤ 2**k
+    big = math.ldexp(1.0, k)
+    if low >= big or high <= -big:
+        # Every |x| ≥ 2**k, so x is a multiple of 2**(k-52); the shift is a
+        # multiple of 2**(k-8); the difference, a multiple of 2**(k-52) below
+        # 2**(k+1) in size, is representable.
+        return _short_centre(low, high)
+    if 0 < low and high <= 2 * low:
+        return low                                       # Sterbenz: x/2 ≤ low ≤ x
+    if high < 0 and low >= 2 * high:
+        return high
+    return 0.0                                           # the box is within 2 extents of the origin
+
+
+def _short_centre(low, high):
+    """A number near (low + high) / 2 with at most ~10 significant bits (a multiple of 2**(k-8), extent ≤ 2**k)."""
+    extent = high - low
+    if not extent > 0 or not math.isfinite(extent):
+        return low
+    k = _ceil_log2(extent)
+    return math.ldexp(round(math.ldexp(low * 0.5 + high * 0.5, 8 - k)), k - 8)
+
+
+class Frame(NamedTuple):
+    """Where and at what scale a part is integrated."""
+
+    reference: tuple            # 3 floats, subtracted exactly
+    scale_exp: int              # lengths are divided by 2**scale_exp
+    radius: float               # max |x − reference| · 2**-scale_exp, exact (from the box)
+
+
+def frame_of(vertices):
+    """The :class:`Frame` of vertices, shape (n, 3), C-contiguous float64."""
+    if vertices.shape[0] == 0:
+        return Frame((0.0, 0.0, 0.0), 0, 0.0)
+    low, high = _core.bounding_box(vertices)
+    reference = [_reference_coordinate(lo, hi) for lo, hi in zip(low, high)]
+    centre = tuple(_short_centre(lo, hi) for lo, hi in zip(low, high))
+    if any(c != r for c, r in zip(centre, reference)):
+        exact = _core.shift_is_exact(vertices, centre)
+        reference = [c if ok else r for c, r, ok in zip(centre, reference, exact)]
+    largest = max(hi - lo for lo, hi in zip(low, high))
+    scale_exp = _ceil_log2(largest) if largest > 0 else 0
+    radius = max(max(abs(hi - r), abs(lo - r)) for lo, hi, r in zip(low, high, reference))
+    return Frame(tuple(reference), scale_exp, math.ldexp(radius, -scale_exp))
+
+
+def reference_frame(vertices):
+    """An exact shift and power-of-two scale that bring the part near the origin at unit size.
+
+    Parameters
+    ----------
+    vertices : array_like, shape (n, 3)
+        Coordinates, mesh units.
+
+    Returns
+    -------
+    reference : ndarray, shape (3,)
+        Subtracted from every vertex, exactly.
+    scale_exp : int
+        Lengths are then divided by ``2**scale_exp``.
+    """
+    import numpy as np
+    from .arrays import as_points
+
+    frame = frame_of(as_points(vertices))
+    return np.array(frame.reference), frame.scale_exp

@@ -1,0 +1,96 @@
+/* Shared declarations of the compiled core (massprops.core._core).
+ *
+ * Every heavy function runs without the GIL on plain C arrays; Python objects
+ * are touched only in module.c, which unpacks arguments (buffer protocol) and
+ * wraps results in Buffer objects (PEP 3118, so numpy views them without a
+ * copy).  Floating point follows IEEE 754 double rounding to nearest with no
+ * contraction (built with -ffp-contract=off, never -ffast-math): the error
+ * bounds and the error-free transformations in expansion.h depend on it.
+ */
+#ifndef MASSPROPS_CORE_H
+#define MASSPROPS_CORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef int64_t index_t;
+
+/* An error raised from GIL-free code: a message and a fix, both static or in the buffers. */
+typedef struct {
+    int kind;                 /* ERR_NONE, ERR_PARSE, ERR_OS, ERR_MEMORY, ERR_INDEX, ERR_VALUE */
+    int os_errno;
+    char message[400];
+    char fix[160];
+} Failure;
+
+enum { ERR_NONE = 0, ERR_PARSE, ERR_OS, ERR_MEMORY, ERR_INDEX, ERR_VALUE };
+
+void fail(Failure *failure, int kind, const char *fix, const char *format, ...)
+    __attribute__((format(printf, 4, 5)));
+
+/* Growable arrays (realloc doubling; large blocks grow by mremap in glibc, without copying). */
+typedef struct {
+    char *data;
+    size_t size;       /* bytes used */
+    size_t capacity;   /* bytes allocated */
+} Growable;
+
+int grow_reserve(Growable *g, size_t bytes);   /* 0, or -1 when memory ran out */
+void grow_free(Growable *g);
+
+/* Parallel loop over numbered blocks: fn(ctx, block) for block in [0, blocks), on up to
+ * `threads` threads (the caller's thread is one of them).  Blocks are handed out in order
+ * from a shared counter; results must be stored per block so they do not depend on which
+ * thread ran which block. */
+typedef void (*block_fn)(void *ctx, int64_t block);
+void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx);
+
+/* ---- welding (weld.c) ---------------------------------------------------------------- */
+
+/* A table of distinct points by exact coordinates: float32 points are kept as their
+ * exactly widened float64 values; -0.0 is stored as +0.0 (they are equal), NaNs by bits. */
+typedef struct {
+    uint64_t *slots;          /* (tag << 32) | (vertex + 1); 0 = empty */
+    uint64_t mask;
+    int bits;
+    Growable vertices;        /* double[3] per distinct point, in order of first appearance */
+    int64_t count;
+} Welder;
+
+int welder_init(Welder *w, int64_t expected);
+void welder_free(Welder *w);
+/* The vertex number of a point (a new one if not seen before), or -1 when memory ran out. */
+int64_t weld_point64(Welder *w, const double point[3]);
+int64_t weld_point32(Welder *w, const float point[3]);
+
+typedef struct MeshArrays MeshArrays;
+/* Weld m triangles given by their corners (3m points, float32 if `single`, else float64). */
+int weld_corners(const void *corners, int single, int64_t m, MeshArrays *out, Failure *failure);
+/* Weld the vertices that faces use (int32 or int64 indices, checked), numbered by first use. */
+int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
+                 MeshArrays *out, Failure *failure);
+
+/* ---- parsing (numbers.c, stl.c, obj.c) ------------------------------------------------- */
+
+void numbers_init(void);
+/* Parse one token [start, end) exactly as Python's float() would accept it (no underscores);
+ * returns 0 and the correctly rounded value, or -1 if it is not a number. */
+int parse_double(const char *start, const char *end, double *value);
+
+struct MeshArrays {
+    double *vertices;         /* n x 3, owned by the caller after success */
+    int64_t n;
+    index_t *faces;           /* m x 3 */
+    int64_t m;
+    int binary;               /* STL: 1 binary (float32 coordinates), 0 ASCII */
+};
+
+int read_stl(const char *path, MeshArrays *out, Failure *failure);
+int read_obj(const char *path, MeshArrays *out, Failure *failure);
+
+/* Open a regular file for reading without blocking on FIFOs; -1 and a failure otherwise. */
+int open_regular(const char *path, int64_t *size, Failure *failure);
+/* Read exactly `bytes` at `offset`; -1 and a failure if the file ends first (it shrank). */
+int read_exactly(int fd, char *buffer, size_t bytes, int64_t offset, Failure *failure);
+
+#endif

@@ -1,0 +1,278 @@
+/* The fast pass: each face's determinant with a certified bound, and the moment sums.
+ *
+ * For a face (a, b, c) of scaled coordinates, det = a . ((b - a) x (c - a)) =
+ * det[a b c] with Shewchuk's bound DET_BOUND * permanent.  A face whose bound
+ * exceeds 64 u |det| (a needle, a plate seen edge-on, a plane through the
+ * reference point) is re-evaluated: from its other two corner rotations
+ * (det is the same, the bound is not: a sliver's cross product cancels at
+ * one corner, not at all), then in double-double, then exactly (expansion
+ * arithmetic, correctly rounded).
+ *
+ * With the pair sums u = a + b, b + c, c + a (Σ u = 2 s, Σ u uᵀ = s sᵀ +
+ * a aᵀ + b bᵀ + c cᵀ), each face adds
+ *     det,   F_i = det (Σ_p u_p,i),   S_ij = det (Σ_p u_p,i u_p,j)
+ * with relative rounding γ4 (F) and γ6 (S) of |det| Σ_p |u_p,i u_p,j| (at
+ * most 6r and 12r² times |det|, r the largest scaled coordinate).  Faces are
+ * processed eight at a time in lanes (so the compiler vectorises), and each
+ * lane adds its terms with Sum2 (Ogita, Rump and Oishi: TwoSum into a high
+ * part, the errors into a low part), whose error over N terms is at most
+ * γ(N)² Σ|term|.  Lane results are stored per block and added exactly at the
+ * end (ExactSum), so the totals are correctly rounded sums of the lane
+ * results and do not depend on the thread count.
+ */
+#include "kernel.h"
+#include "expansion.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define LANES 8
+#define REFINE_ABOVE (64.0 * UNIT_ROUNDOFF)
+
+enum { Q_DET, Q_F0, Q_F1, Q_F2, Q_XX, Q_YY, Q_ZZ, Q_XY, Q_YZ, Q_ZX, SUMMED };
+enum { P_ABS, P_BOUND, P_AREA, PLAIN };
+
+typedef struct {
+    double hi[SUMMED][LANES], lo[SUMMED][LANES];
+    double plain[PLAIN][LANES];
+    double weight_max;                /* the largest |weight| in the block (underflow allowance) */
+    int64_t refined, exact, bad_face;
+} BlockResult;
+
+typedef struct {
+    const KernelInput *in;
+    Scaling scaling;
+    BlockResult *blocks;
+} Work;
+
+void scaling_init(Scaling *s, int scale_exp)
+{
+    s->two = -scale_exp > 1023;            /* 2**-scale_exp would overflow: two exact steps */
+    s->f1 = s->two ? 0x1p1000 : ldexp(1.0, -scale_exp);
+    s->f2 = s->two ? ldexp(1.0, -scale_exp - 1000) : 1.0;
+}
+
+/* The exact det[a b c] rounded to nearest: 24 error-free terms added exactly. */
+static double exact_det(const double a[3], const double b[3], const double c[3])
+{
+    static const int I[6] = {0, 1, 2, 0, 1, 2}, J[6] = {1, 2, 0, 2, 0, 1}, K[6] = {2, 0, 1, 1, 2, 0};
+    ExactSum sum;
+    int t;
+    exact_init(&sum);
+    for (t = 0; t < 6; t++) {
+        double p, pe, x1, x2, x3, x4, ck = t < 3 ? c[K[t]] : -c[K[t]];
+        two_product(a[I[t]], b[J[t]], &p, &pe);
+        two_product(p, ck, &x1, &x2);
+        two_product(pe, ck, &x3, &x4);
+        exact_add(&sum, x1);
+        exact_add(&sum, x2);
+        exact_add(&sum, x3);
+        exact_add(&sum, x4);
+    }
+    return exact_value(&sum);
+}
+
+/* A hard face: the best of its rotations, else double-double, else exact.  Returns 0, 1 or 2. */
+static int refine(const double corner[3][3], double *det, double *bound)
+{
+    double d, e, area, products, hi, lo, permanent;
+    det_and_bound(corner[1], corner[2], corner[0], &d, &e, &area, &products);
+    if (e < *bound) {
+        *det = d;
+        *bound = e;
+    }
+    det_and_bound(corner[2], corner[0], corner[1], &d, &e, &area, &products);
+    if (e < *bound) {
+        *det = d;
+        *bound = e;
+    }
+    if (*bound <= REFINE_ABOVE * fabs(*det))
+        return 0;
+    det_double_double(corner[0], corner[1], corner[2], &hi, &lo, &permanent);
+    d = hi + lo;
+    /* hi + lo is within det_double_double_error() * permanent; rounding it adds u |d|. */
+    e = UNIT_ROUNDOFF * fabs(d) + det_double_double_error() * permanent;
+    if (e <= REFINE_ABOVE * fabs(d) && e < *bound) {
+        *det = d;
+        *bound = e;
+        return 1;
+    }
+    *det = exact_det(corner[0], corner[1], corner[2]);
+    *bound = UNIT_ROUNDOFF * fabs(*det);
+    return 2;
+}
+
+#define SUM2(q, value)                                                  \
+    do {                                                                \
+        double x_ = (value), h_ = r->hi[q][l], s_ = h_ + x_;            \
+        double b_ = s_ - h_;                                            \
+        r->lo[q][l] += (h_ - (s_ - b_)) + (x_ - b_);                    \
+        r->hi[q][l] = s_;                                               \
+    } while (0)
+
+/* LANES faces from f0 (count of them real; the rest contribute zeros). */
+static void lane_batch(const Work *w, int64_t f0, int count, BlockResult *r)
+{
+    const KernelInput *in = w->in;
+    double corner[LANES][3][3], det[LANES], bound[LANES], area[LANES], products[LANES];
+    int l, hard = 0;
+    for (l = 0; l < LANES; l++) {
+        if (l < count && load_face(in, &w->scaling, f0 + l, corner[l]) != 0) {
+            if (r->bad_face < 0)
+                r->bad_face = f0 + l;
+            count = l;                           /* the block is abandoned: the caller raises */
+        }
+        if (l >= count)
+            memset(corner[l], 0, sizeof corner[l]);
+    }
+    for (l = 0; l < LANES; l++) {
+        det_and_bound(corner[l][0], corner[l][1], corner[l][2], &det[l], &bound[l], &area[l], &products[l]);
+        hard |= bound[l] > REFINE_ABOVE * fabs(det[l]);
+    }
+    if (in->area_measure) {
+        for (l = 0; l < LANES; l++) {
+            /* |n| from the rounded cross product: γ3 of its components' products, γ3 for the length. */
+            bound[l] = gamma_k(6) * products[l] + gamma_k(3) * area[l];
+            det[l] = area[l];
+        }
+    } else if (hard) {
+        for (l = 0; l < count; l++)
+            if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
+                int kind = refine(corner[l], &det[l], &bound[l]);
+                r->refined += kind >= 1;
+                r->exact += kind == 2;
+            }
+    }
+    if (in->weights)
+        for (l = 0; l < LANES; l++) {
+            double weight = l < count ? in->weights[f0 + l] : 0.0;
+            if (fabs(weight) > r->weight_max)
+                r->weight_max = fabs(weight);
+            det[l] *= weight;
+            bound[l] = fabs(weight) * bound[l] * (1.0 + 2.0 * UNIT_ROUNDOFF) + 2.0 * UNIT_ROUNDOFF * fabs(det[l]);
+        }
+    for (l = 0; l < LANES; l++) {
+        const double *a = corner[l][0], *b = corner[l][1], *c = corner[l][2];
+        double d = det[l];
+        SUM2(Q_DET, d);
+        r->plain[P_ABS][l] += fabs(d);
+        r->plain[P_BOUND][l] += bound[l];
+        r->plain[P_AREA][l] += area[l];
+        if (in->order >= 1) {
+            double ux[3] = {a[0] + b[0], b[0] + c[0], c[0] + a[0]};
+            double uy[3] = {a[1] + b[1], b[1] + c[1], c[1] + a[1]};
+            double uz[3] = {a[2] + b[2], b[2] + c[2], c[2] + a[2]};
+            SUM2(Q_F0, d * ((ux[0] + ux[1]) + ux[2]));
+            SUM2(Q_F1, d * ((uy[0] + uy[1]) + uy[2]));
+            SUM2(Q_F2, d * ((uz[0] + uz[1]) + uz[2]));
+            if (in->order >= 2) {
+                SUM2(Q_XX, d * ((ux[0] * ux[0] + ux[1] * ux[1]) + ux[2] * ux[2]));
+                SUM2(Q_YY, d * ((uy[0] * uy[0] + uy[1] * uy[1]) + uy[2] * uy[2]));
+                SUM2(Q_ZZ, d * ((uz[0] * uz[0] + uz[1] * uz[1]) + uz[2] * uz[2]));
+                SUM2(Q_XY, d * ((ux[0] * uy[0] + ux[1] * uy[1]) + ux[2] * uy[2]));
+                SUM2(Q_YZ, d * ((uy[0] * uz[0] + uy[1] * uz[1]) + uy[2] * uz[2]));
+                SUM2(Q_ZX, d * ((uz[0] * ux[0] + uz[1] * ux[1]) + uz[2] * ux[2]));
+            }
+        }
+    }
+}
+
+static void run_block(void *arg, int64_t block)
+{
+    Work *w = arg;
+    BlockResult *r = &w->blocks[block];
+    int64_t f, first = block * KERNEL_BLOCK, last = first + KERNEL_BLOCK;
+    if (last > w->in->m)
+        last = w->in->m;
+    memset(r, 0, sizeof *r);
+    r->bad_face = -1;
+    for (f = first; f < last && r->bad_face < 0; f += LANES)
+        lane_batch(w, f, (int)(last - f < LANES ? last - f : LANES), r);
+}
+
+static double largest(const double *values, int count)
+{
+    double m = 0.0;
+    int k;
+    for (k = 0; k < count; k++)
+        if (fabs(values[k]) > m)
+            m = fabs(values[k]);
+    return m;
+}
+
+int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
+{
+    int64_t blocks = (in->m + KERNEL_BLOCK - 1) / KERNEL_BLOCK, b;
+    Work w = {in, {0}, NULL};
+    ExactSum summed[SUMMED], plain[PLAIN];
+    double g, sum2, abs_up, bound_up, r = in->radius, tiny, F[3], weight_max = 0.0;
+    int q, l;
+    memset(out, 0, sizeof *out);
+    out->bad_face = -1;
+    scaling_init(&w.scaling, in->scale_exp);
+    w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
+    if (!w.blocks) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    parallel_blocks(in->threads, blocks, run_block, &w);
+    for (q = 0; q < SUMMED; q++)
+        exact_init(&summed[q]);
+    for (q = 0; q < PLAIN; q++)
+        exact_init(&plain[q]);
+    for (b = 0; b < blocks; b++) {
+        const BlockResult *r_ = &w.blocks[b];
+        if (r_->bad_face >= 0 && out->bad_face < 0)
+            out->bad_face = r_->bad_face;
+        out->refined += r_->refined;
+        if (r_->weight_max > weight_max)
+            weight_max = r_->weight_max;
+        out->exact += r_->exact;
+        for (l = 0; l < LANES; l++) {
+            for (q = 0; q < SUMMED; q++) {
+                exact_add(&summed[q], r_->hi[q][l]);
+                exact_add(&summed[q], r_->lo[q][l]);
+            }
+            for (q = 0; q < PLAIN; q++)
+                exact_add(&plain[q], r_->plain[q][l]);
+        }
+    }
+    free(w.blocks);
+    if (out->bad_face >= 0) {
+        fail(failure, ERR_INDEX, "re-export the mesh", "a face refers to a vertex that does not exist (face %lld)",
+             (long long)out->bad_face);
+        return -1;
+    }
+    /* Each lane adds at most N = KERNEL_BLOCK / LANES terms per block, plainly (abs, bound)
+     * or by Sum2 (the rest): plain sums of non-negative terms are within γ(N) of exact. */
+    g = gamma_k(KERNEL_BLOCK / LANES);
+    sum2 = g * g;
+    abs_up = exact_value(&plain[P_ABS]) * (1.0 + 2.0 * g);
+    bound_up = exact_value(&plain[P_BOUND]) * (1.0 + 2.0 * g);
+    tiny = (double)in->m * UNDERFLOW_ALLOWANCE * (1.0 + weight_max);
+    out->abs_sum = abs_up;
+    out->area2 = exact_value(&plain[P_AREA]);
+    out->det_sum = exact_value(&summed[Q_DET]);
+    out->det_error = bound_up + sum2 * abs_up + UNIT_ROUNDOFF * fabs(out->det_sum) + tiny;
+    for (q = 0; q < 3; q++)
+        F[q] = exact_value(&summed[Q_F0 + q]);
+    for (q = 0; q < 6; q++)
+        out->second[q] = exact_value(&summed[Q_XX + q]);
+    if (in->order >= 1) {
+        /* F = Σ det (Σ_p u_p) = 2 Σ det s; first = F / 2 (exact). */
+        double error = 6.0 * r * (bound_up + gamma_k(4) * abs_up) + sum2 * 6.0 * r * (1.0 + gamma_k(4)) * abs_up
+                       + UNIT_ROUNDOFF * largest(F, 3) + tiny * (6.0 * r + 1.0);
+        for (q = 0; q < 3; q++)
+            out->first[q] = 0.5 * F[q];
+        out->first_error = 0.5 * error;
+    }
+    if (in->order >= 2)
+        out->second_error = 12.0 * r * r * (bound_up + gamma_k(6) * abs_up)
+                            + sum2 * 12.0 * r * r * (1.0 + gamma_k(6)) * abs_up
+                            + UNIT_ROUNDOFF * largest(out->second, 6) + tiny * (12.0 * r * r + 1.0);
+    /* The bounds are themselves computed in floating point: a margin for their own roundings. */
+    out->det_error *= 1.0 + 0x1p-40;
+    out->first_error *= 1.0 + 0x1p-40;
+    out->second_error *= 1.0 + 0x1p-40;
+    return 0;
+}

@@ -1,0 +1,586 @@
+/* massprops.core._core: the CPython face of the compiled core.
+ *
+ * Arguments arrive through the buffer protocol (C-contiguous float64,
+ * float32, int32 or int64 arrays), results leave as Buffer objects that own
+ * their memory and export it (PEP 3118) with a format and a shape, so
+ * numpy.asarray views them without a copy.  The GIL is released around every
+ * call into the C functions; failures raised there become ParseError
+ * (ValueError: a malformed file, with a message and a fix), OSError,
+ * IndexError, ValueError or MemoryError here.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include "core.h"
+#include "kernel.h"
+#include "topology.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static PyObject *ParseError;
+
+/* ---- Buffer ------------------------------------------------------------------------------ */
+
+typedef struct {
+    PyObject_HEAD
+    void *data;
+    Py_ssize_t shape[2], strides[2];
+    int ndim;
+    char format[2];
+    Py_ssize_t itemsize;
+} BufferObject;
+
+static void buffer_dealloc(BufferObject *self)
+{
+    free(self->data);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int buffer_get(BufferObject *self, Py_buffer *view, int flags)
+{
+    view->obj = (PyObject *)self;
+    Py_INCREF(self);
+    view->buf = self->data;
+    view->len = self->itemsize * self->shape[0] * (self->ndim == 2 ? self->shape[1] : 1);
+    view->readonly = 0;
+    view->itemsize = self->itemsize;
+    view->format = (flags & PyBUF_FORMAT) ? self->format : NULL;
+    view->ndim = self->ndim;
+    view->shape = (flags & PyBUF_ND) ? self->shape : NULL;
+    view->strides = (flags & PyBUF_STRIDES) ? self->strides : NULL;
+    view->suboffsets = NULL;
+    view->internal = NULL;
+    return 0;
+}
+
+static PyBufferProcs buffer_procs = {(getbufferproc)buffer_get, NULL};
+
+static PyTypeObject BufferType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "massprops.core._core.Buffer",
+    .tp_basicsize = sizeof(BufferObject),
+    .tp_dealloc = (destructor)buffer_dealloc,
+    .tp_as_buffer = &buffer_procs,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Memory owned by the compiled core, exported through the buffer protocol.",
+};
+
+/* Wrap malloc'd memory (taking ownership; freed here on failure). */
+static PyObject *buffer_wrap(void *data, char format, Py_ssize_t itemsize, Py_ssize_t rows, Py_ssize_t columns)
+{
+    BufferObject *b = PyObject_New(BufferObject, &BufferType);
+    if (!b) {
+        free(data);
+        return NULL;
+    }
+    b->data = data;
+    b->format[0] = format;
+    b->format[1] = '\0';
+    b->itemsize = itemsize;
+    b->ndim = columns > 0 ? 2 : 1;
+    b->shape[0] = rows;
+    b->shape[1] = columns > 0 ? columns : 1;
+    b->strides[0] = itemsize * (columns > 0 ? columns : 1);
+    b->strides[1] = itemsize;
+    return (PyObject *)b;
+}
+
+/* ---- arguments ------------------------------------------------------------------------------ */
+
+enum { ARRAY_F64 = 1, ARRAY_F32 = 2, ARRAY_I32 = 4, ARRAY_I64 = 8 };
+
+/* A C-contiguous buffer of one of the accepted kinds; returns its kind, or 0 with an exception. */
+static int get_array(PyObject *object, Py_buffer *view, int accepted, const char *name)
+{
+    const char *f;
+    int kind = 0;
+    if (PyObject_GetBuffer(object, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) != 0)
+        return 0;
+    f = view->format ? view->format : "B";
+    while (*f == '@' || *f == '=' || *f == '<')
+        f++;
+    if (f[1] == '\0') {
+        if (*f == 'd' && view->itemsize == 8)
+            kind = ARRAY_F64;
+        else if (*f == 'f' && view->itemsize == 4)
+            kind = ARRAY_F32;
+        else if ((*f == 'i' || *f == 'l' || *f == 'q') && view->itemsize == 4)
+            kind = ARRAY_I32;
+        else if ((*f == 'l' || *f == 'q') && view->itemsize == 8)
+            kind = ARRAY_I64;
+    }
+    if (!(kind & accepted)) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous array of %s, got format '%s'", name,
+                     accepted & ARRAY_I64 ? "int32 or int64" : accepted & ARRAY_F32 ? "float32 or float64" : "float64",
+                     view->format ? view->format : "B");
+        PyBuffer_Release(view);
+        return 0;
+    }
+    return kind;
+}
+
+static PyObject *raise_failure(const Failure *failure, PyObject *path)
+{
+    switch (failure->kind) {
+    case ERR_PARSE:
+        PyErr_SetObject(ParseError, Py_BuildValue("(ss)", failure->message, failure->fix));
+        break;
+    case ERR_OS:
+        errno = failure->os_errno;
+        PyErr_SetFromErrnoWithFilenameObject(PyExc_OSError, path);
+        break;
+    case ERR_INDEX:
+        PyErr_SetString(PyExc_IndexError, failure->message);
+        break;
+    case ERR_MEMORY:
+        PyErr_SetString(PyExc_MemoryError, failure->message);
+        break;
+    default:
+        PyErr_SetString(PyExc_ValueError, failure->message);
+    }
+    return NULL;
+}
+
+static PyObject *mesh_result(MeshArrays *mesh, int with_binary)
+{
+    PyObject *vertices = buffer_wrap(mesh->vertices, 'd', 8, (Py_ssize_t)mesh->n, 3), *faces;
+    mesh->vertices = NULL;
+    faces = buffer_wrap(mesh->faces, 'q', 8, (Py_ssize_t)mesh->m, 3);
+    mesh->faces = NULL;
+    if (!vertices || !faces) {
+        Py_XDECREF(vertices);
+        Py_XDECREF(faces);
+        return NULL;
+    }
+    if (with_binary)
+        return Py_BuildValue("(NNO)", vertices, faces, mesh->binary ? Py_True : Py_False);
+    return Py_BuildValue("(NN)", vertices, faces);
+}
+
+/* ---- readers and welding ------------------------------------------------------------------ */
+
+static PyObject *read_file(PyObject *args, int (*reader)(const char *, MeshArrays *, Failure *), int stl)
+{
+    PyObject *path;
+    MeshArrays mesh;
+    Failure failure = {0};
+    int status;
+    if (!PyArg_ParseTuple(args, "O&", PyUnicode_FSConverter, &path))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = reader(PyBytes_AS_STRING(path), &mesh, &failure);
+    Py_END_ALLOW_THREADS
+    if (status != 0) {
+        PyObject *name = PyUnicode_DecodeFSDefault(PyBytes_AS_STRING(path));
+        raise_failure(&failure, name);
+        Py_XDECREF(name);
+        Py_DECREF(path);
+        return NULL;
+    }
+    Py_DECREF(path);
+    return mesh_result(&mesh, stl);
+}
+
+static PyObject *core_read_stl(PyObject *self, PyObject *args) { return read_file(args, read_stl, 1); }
+static PyObject *core_read_obj(PyObject *self, PyObject *args) { return read_file(args, read_obj, 0); }
+
+static PyObject *core_weld_corners(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    MeshArrays mesh;
+    Failure failure = {0};
+    int kind, status;
+    Py_ssize_t count;
+    if (!PyArg_ParseTuple(args, "O", &object) || !(kind = get_array(object, &view, ARRAY_F64 | ARRAY_F32, "corners")))
+        return NULL;
+    count = view.len / view.itemsize;
+    if (count % 9) {
+        PyBuffer_Release(&view);
+        PyErr_SetString(PyExc_ValueError, "corners: expected 3 points of 3 coordinates per triangle");
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = weld_corners(view.buf, kind == ARRAY_F32, count / 9, &mesh, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return status ? raise_failure(&failure, NULL) : mesh_result(&mesh, 0);
+}
+
+static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
+{
+    PyObject *vertex_object, *face_object;
+    Py_buffer vertices, faces;
+    MeshArrays mesh;
+    Failure failure = {0};
+    int kind, status;
+    if (!PyArg_ParseTuple(args, "OO", &vertex_object, &face_object)
+            || !get_array(vertex_object, &vertices, ARRAY_F64, "vertices"))
+        return NULL;
+    if (!(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces"))) {
+        PyBuffer_Release(&vertices);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = weld_indexed(vertices.buf, vertices.len / 24, faces.buf, kind == ARRAY_I32,
+                          faces.len / faces.itemsize / 3, &mesh, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&vertices);
+    PyBuffer_Release(&faces);
+    return status ? raise_failure(&failure, NULL) : mesh_result(&mesh, 0);
+}
+
+/* ---- topology ------------------------------------------------------------------------------ */
+
+static PyObject *core_edge_summary(PyObject *self, PyObject *args)
+{
+    PyObject *face_object, *result;
+    Py_buffer faces;
+    Py_ssize_t n;
+    int threads, with_arrays, kind, status;
+    EdgeSummary s;
+    EdgeArrays arrays = {0};
+    Failure failure = {0};
+    if (!PyArg_ParseTuple(args, "Onip", &face_object, &n, &threads, &with_arrays)
+            || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = edge_summary(faces.buf, kind == ARRAY_I32, faces.len / faces.itemsize / 3, n, threads, &s,
+                          with_arrays ? &arrays : NULL, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status) {
+        free(arrays.edges);
+        free(arrays.uses);
+        free(arrays.balance);
+        return raise_failure(&failure, NULL);
+    }
+    result = Py_BuildValue("{sLsLsLsLsLsLsLs(LL)s(LL)}", "edges", (long long)s.edges, "boundary", (long long)s.boundary,
+                           "odd", (long long)s.odd, "unbalanced", (long long)s.unbalanced, "nonmanifold",
+                           (long long)s.nonmanifold, "max_uses", (long long)s.max_uses, "collapsed",
+                           (long long)s.collapsed, "first_boundary", (long long)s.first_boundary[0],
+                           (long long)s.first_boundary[1], "first_unbalanced", (long long)s.first_unbalanced[0],
+                           (long long)s.first_unbalanced[1]);
+    if (result && with_arrays) {
+        PyObject *edges = buffer_wrap(arrays.edges, 'q', 8, (Py_ssize_t)arrays.count, 2);
+        PyObject *uses = buffer_wrap(arrays.uses, 'i', 4, (Py_ssize_t)arrays.count, 0);
+        PyObject *balance = buffer_wrap(arrays.balance, 'i', 4, (Py_ssize_t)arrays.count, 0);
+        if (!edges || !uses || !balance || PyDict_SetItemString(result, "edge_vertices", edges)
+                || PyDict_SetItemString(result, "uses", uses) || PyDict_SetItemString(result, "balance", balance))
+            Py_CLEAR(result);
+        Py_XDECREF(edges);
+        Py_XDECREF(uses);
+        Py_XDECREF(balance);
+    }
+    return result;
+}
+
+static PyObject *core_shells(PyObject *self, PyObject *args)
+{
+    PyObject *face_object;
+    Py_buffer faces;
+    Py_ssize_t n, m;
+    int with_labels, kind, status;
+    int64_t count = 0, *labels = NULL;
+    Failure failure = {0};
+    if (!PyArg_ParseTuple(args, "Onp", &face_object, &n, &with_labels)
+            || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    m = faces.len / faces.itemsize / 3;
+    if (with_labels && !(labels = malloc((size_t)(m > 0 ? m : 1) * sizeof *labels))) {
+        PyBuffer_Release(&faces);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = face_shells(faces.buf, kind == ARRAY_I32, m, n, labels, &count, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status) {
+        free(labels);
+        return raise_failure(&failure, NULL);
+    }
+    if (!with_labels)
+        return Py_BuildValue("(OL)", Py_None, (long long)count);
+    return Py_BuildValue("(NL)", buffer_wrap(labels, 'q', 8, m, 0), (long long)count);
+}
+
+static PyObject *core_face_groups(PyObject *self, PyObject *args)
+{
+    PyObject *face_object, *labels_buffer, *first_buffer;
+    Py_buffer faces;
+    Py_ssize_t m;
+    int kind, status;
+    int64_t *labels, *first, groups = 0, same = 0, opposite = 0;
+    Failure failure = {0};
+    if (!PyArg_ParseTuple(args, "O", &face_object) || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    m = faces.len / faces.itemsize / 3;
+    labels = malloc((size_t)(m > 0 ? m : 1) * sizeof *labels);
+    first = malloc((size_t)(m > 0 ? m : 1) * sizeof *first);
+    if (!labels || !first) {
+        free(labels);
+        free(first);
+        PyBuffer_Release(&faces);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = face_groups(faces.buf, kind == ARRAY_I32, m, labels, first, &groups, &same, &opposite, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status) {
+        free(labels);
+        free(first);
+        return raise_failure(&failure, NULL);
+    }
+    labels_buffer = buffer_wrap(labels, 'q', 8, m, 0);
+    first_buffer = buffer_wrap(first, 'q', 8, (Py_ssize_t)groups, 0);
+    if (!labels_buffer || !first_buffer) {
+        Py_XDECREF(labels_buffer);
+        Py_XDECREF(first_buffer);
+        return NULL;
+    }
+    return Py_BuildValue("(NNLL)", labels_buffer, first_buffer, (long long)same, (long long)opposite);
+}
+
+/* ---- the kernel ---------------------------------------------------------------------------- */
+
+/* Fill a KernelInput from (vertices, faces, (rx, ry, rz), scale_exp, radius); buffers to release. */
+static int kernel_input(PyObject *vertex_object, PyObject *face_object, PyObject *reference, int scale_exp,
+                        double radius, KernelInput *in, Py_buffer *vertices, Py_buffer *faces, int columns)
+{
+    int kind;
+    memset(in, 0, sizeof *in);
+    if (!PyArg_ParseTuple(reference, "ddd", &in->reference[0], &in->reference[1], &in->reference[2]))
+        return -1;
+    if (!get_array(vertex_object, vertices, ARRAY_F64, "vertices"))
+        return -1;
+    if (!(kind = get_array(face_object, faces, ARRAY_I32 | ARRAY_I64, "faces"))) {
+        PyBuffer_Release(vertices);
+        return -1;
+    }
+    in->vertices = vertices->buf;
+    in->n = vertices->len / 24;
+    in->faces = faces->buf;
+    in->faces32 = kind == ARRAY_I32;
+    in->m = faces->len / faces->itemsize / columns;
+    in->scale_exp = scale_exp;
+    in->radius = radius;
+    return 0;
+}
+
+static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"vertices", "faces", "reference", "scale_exp", "radius", "order", "area", "weights",
+                            "threads", "double_double", NULL};
+    PyObject *vertex_object, *face_object, *reference, *weight_object = Py_None;
+    Py_buffer vertices, faces, weights;
+    KernelInput in;
+    KernelResult out;
+    Failure failure = {0};
+    int scale_exp, order, area, threads, dd, status;
+    double radius;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO!idipOip", names, &vertex_object, &face_object, &PyTuple_Type,
+                                     &reference, &scale_exp, &radius, &order, &area, &weight_object, &threads, &dd))
+        return NULL;
+    if (kernel_input(vertex_object, face_object, reference, scale_exp, radius, &in, &vertices, &faces, 3) != 0)
+        return NULL;
+    in.order = order;
+    in.area_measure = area;
+    in.threads = threads;
+    if (weight_object != Py_None) {
+        if (!get_array(weight_object, &weights, ARRAY_F64, "weights")) {
+            PyBuffer_Release(&vertices);
+            PyBuffer_Release(&faces);
+            return NULL;
+        }
+        if (weights.len / 8 != in.m) {
+            PyBuffer_Release(&weights);
+            PyBuffer_Release(&vertices);
+            PyBuffer_Release(&faces);
+            PyErr_SetString(PyExc_ValueError, "weights: expected one per face");
+            return NULL;
+        }
+        in.weights = weights.buf;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = dd ? integrate_faces_dd(&in, &out, &failure) : integrate_faces(&in, &out, &failure);
+    Py_END_ALLOW_THREADS
+    if (weight_object != Py_None)
+        PyBuffer_Release(&weights);
+    PyBuffer_Release(&vertices);
+    PyBuffer_Release(&faces);
+    if (status)
+        return raise_failure(&failure, NULL);
+    return Py_BuildValue("{sdsds(ddd)sds(dddddd)sdsdsdsLsL}", "det_sum", out.det_sum, "det_error", out.det_error,
+                         "first", out.first[0], out.first[1], out.first[2], "first_error", out.first_error,
+                         "second", out.second[0], out.second[1], out.second[2], out.second[3], out.second[4],
+                         out.second[5], "second_error", out.second_error, "area2", out.area2, "abs_sum",
+                         out.abs_sum, "refined", (long long)out.refined, "exact", (long long)out.exact);
+}
+
+static PyObject *core_tetra_determinants(PyObject *self, PyObject *args)
+{
+    PyObject *vertex_object, *tet_object, *reference, *det_buffer, *bound_buffer;
+    Py_buffer vertices, tets;
+    KernelInput in;
+    Failure failure = {0};
+    int scale_exp, status;
+    int64_t bad = -1;
+    double *det, *bound;
+    if (!PyArg_ParseTuple(args, "OOO!i", &vertex_object, &tet_object, &PyTuple_Type, &reference, &scale_exp))
+        return NULL;
+    if (kernel_input(vertex_object, tet_object, reference, scale_exp, 0.0, &in, &vertices, &tets, 4) != 0)
+        return NULL;
+    det = malloc((size_t)(in.m > 0 ? in.m : 1) * sizeof *det);
+    bound = malloc((size_t)(in.m > 0 ? in.m : 1) * sizeof *bound);
+    if (!det || !bound) {
+        free(det);
+        free(bound);
+        PyBuffer_Release(&vertices);
+        PyBuffer_Release(&tets);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    status = tetra_determinants(&in, det, bound, &bad, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&vertices);
+    PyBuffer_Release(&tets);
+    if (status) {
+        free(det);
+        free(bound);
+        return PyErr_Format(PyExc_IndexError, "tetrahedron %lld refers to a node that does not exist", (long long)bad);
+    }
+    det_buffer = buffer_wrap(det, 'd', 8, (Py_ssize_t)in.m, 0);
+    bound_buffer = buffer_wrap(bound, 'd', 8, (Py_ssize_t)in.m, 0);
+    if (!det_buffer || !bound_buffer) {
+        Py_XDECREF(det_buffer);
+        Py_XDECREF(bound_buffer);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", det_buffer, bound_buffer);
+}
+
+static PyObject *core_shell_determinants(PyObject *self, PyObject *args)
+{
+    PyObject *vertex_object, *face_object, *label_object, *reference, *sum_buffer, *error_buffer;
+    Py_buffer vertices, faces, labels;
+    KernelInput in;
+    Failure failure = {0};
+    Py_ssize_t shells;
+    int scale_exp, status;
+    double *sums, *errors;
+    if (!PyArg_ParseTuple(args, "OOOnO!i", &vertex_object, &face_object, &label_object, &shells, &PyTuple_Type,
+                          &reference, &scale_exp))
+        return NULL;
+    if (kernel_input(vertex_object, face_object, reference, scale_exp, 0.0, &in, &vertices, &faces, 3) != 0)
+        return NULL;
+    if (!get_array(label_object, &labels, ARRAY_I64, "labels")) {
+        PyBuffer_Release(&vertices);
+        PyBuffer_Release(&faces);
+        return NULL;
+    }
+    sums = malloc((size_t)(shells > 0 ? shells : 1) * sizeof *sums);
+    errors = malloc((size_t)(shells > 0 ? shells : 1) * sizeof *errors);
+    status = !sums || !errors || labels.len / 8 != in.m;
+    if (!status) {
+        Py_BEGIN_ALLOW_THREADS
+        status = shell_determinants(&in, labels.buf, shells, sums, errors, &failure);
+        Py_END_ALLOW_THREADS
+    } else {
+        fail(&failure, ERR_VALUE, NULL, "labels: expected one per face");
+    }
+    PyBuffer_Release(&vertices);
+    PyBuffer_Release(&faces);
+    PyBuffer_Release(&labels);
+    if (status) {
+        free(sums);
+        free(errors);
+        return raise_failure(&failure, NULL);
+    }
+    sum_buffer = buffer_wrap(sums, 'd', 8, shells, 0);
+    error_buffer = buffer_wrap(errors, 'd', 8, shells, 0);
+    if (!sum_buffer || !error_buffer) {
+        Py_XDECREF(sum_buffer);
+        Py_XDECREF(error_buffer);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", sum_buffer, error_buffer);
+}
+
+static PyObject *core_bounding_box(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    double low[3], high[3];
+    if (!PyArg_ParseTuple(args, "O", &object) || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    bounding_box(view.buf, view.len / 24, low, high);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return Py_BuildValue("((ddd)(ddd))", low[0], low[1], low[2], high[0], high[1], high[2]);
+}
+
+static PyObject *core_shift_is_exact(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    double centre[3];
+    int exact[3];
+    if (!PyArg_ParseTuple(args, "O(ddd)", &object, &centre[0], &centre[1], &centre[2])
+            || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    shift_is_exact(view.buf, view.len / 24, centre, exact);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return Py_BuildValue("(OOO)", exact[0] ? Py_True : Py_False, exact[1] ? Py_True : Py_False,
+                         exact[2] ? Py_True : Py_False);
+}
+
+static PyMethodDef methods[] = {
+    {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path) -> (vertices, faces, binary)"},
+    {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces)"},
+    {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners) -> (vertices, faces)"},
+    {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces)"},
+    {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
+    {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
+    {"face_groups", core_face_groups, METH_VARARGS, "face_groups(faces) -> (labels, first, same, opposite)"},
+    {"integrate", (PyCFunction)(void (*)(void))core_integrate, METH_VARARGS | METH_KEYWORDS,
+     "integrate(vertices, faces, reference, scale_exp, radius, order, area, weights, threads, double_double) -> dict"},
+    {"tetra_determinants", core_tetra_determinants, METH_VARARGS,
+     "tetra_determinants(points, tets, reference, scale_exp) -> (det, bound)"},
+    {"shell_determinants", core_shell_determinants, METH_VARARGS,
+     "shell_determinants(vertices, faces, labels, shells, reference, scale_exp) -> (det_sum, det_error)"},
+    {"bounding_box", core_bounding_box, METH_VARARGS, "bounding_box(vertices) -> (low, high)"},
+    {"shift_is_exact", core_shift_is_exact, METH_VARARGS, "shift_is_exact(vertices, centre) -> 3 bools"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_core", "The compiled core of massprops.", -1, methods};
+
+PyMODINIT_FUNC PyInit__core(void)
+{
+    PyObject *m;
+    if (PyType_Ready(&BufferType) < 0)
+        return NULL;
+    m = PyModule_Create(&module);
+    if (!m)
+        return NULL;
+    numbers_init();
+    ParseError = PyErr_NewExceptionWithDoc("massprops.core._core.ParseError",
+                                           "A malformed mesh file: args are (message, fix).", PyExc_ValueError, NULL);
+    if (!ParseError || PyModule_AddObject(m, "ParseError", ParseError) != 0) {
+        Py_XDECREF(ParseError);
+        Py_DECREF(m);
+        return NULL;
+    }
+    Py_INCREF(ParseError);
+    Py_INCREF(&BufferType);
+    if (PyModule_AddObject(m, "Buffer", (PyObject *)&BufferType) != 0) {
+        Py_DECREF(&BufferType);
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

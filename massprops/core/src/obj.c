@@ -1,0 +1,243 @@
+/* Wavefront OBJ: one reader with one behaviour, straight into welded arrays.
+ *
+ * Read: "v x y z [w] [r g b]" (the first three numbers are the point; any
+ * further words must be numbers too) and "f" with corners "i", "i/t",
+ * "i//n" or "i/t/n"; indices count from 1, negative ones back from the last
+ * vertex defined; a polygon is fanned from its first corner.  Lines may be
+ * indented, end in LF, CRLF or CR, continue after a trailing backslash, and
+ * carry a '#' comment.  Every other statement (vt, vn, o, g, s, usemtl, l,
+ * ...) is skipped.  Coordinates are read as Python's float() reads them.
+ * Faces may only use vertices defined before them.  The vertices the faces
+ * use are then welded by exact coordinates (unused ones take no part).
+ */
+#include "core.h"
+#include "lines.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+typedef struct {
+    Growable vertices;        /* double[3] per "v" line */
+    Growable faces;           /* index_t[3] per triangle (0-based, into vertices) */
+    Growable corners;         /* int64 per corner of the face being read */
+    int64_t line;
+    Failure *failure;
+} ObjState;
+
+static int64_t vertex_count(const ObjState *s) { return (int64_t)(s->vertices.size / (3 * sizeof(double))); }
+
+static void cannot_read(ObjState *s, const char *text, const char *end)
+{
+    while (text < end && is_space(*text))
+        text++;
+    fail(s->failure, ERR_PARSE, "re-export the mesh", "line %lld: cannot read '%.*s'", (long long)s->line,
+         (int)(end - text < 60 ? end - text : 60), text);
+}
+
+static int vertex_line(ObjState *s, const char *p, const char *end, const char *text)
+{
+    const char *word, *word_end;
+    double value, point[3];
+    int count = 0;
+    while (next_word(&p, end, &word, &word_end)) {
+        if (parse_double(word, word_end, &value) != 0) {
+            cannot_read(s, text, end);
+            return -1;
+        }
+        if (count < 3)
+            point[count] = value;
+        count++;
+    }
+    if (count < 3) {
+        cannot_read(s, text, end);
+        return -1;
+    }
+    if (grow_reserve(&s->vertices, sizeof point) != 0) {
+        fail(s->failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    memcpy(s->vertices.data + s->vertices.size, point, sizeof point);
+    s->vertices.size += sizeof point;
+    return 0;
+}
+
+/* Digits with an optional sign: 1 and the value, 0 if empty, -1 if malformed or too long. */
+static int signed_integer(const char **p, const char *end, int64_t *value)
+{
+    const char *q = *p;
+    int negative = 0, digits = 0;
+    int64_t result = 0;
+    if (q < end && (*q == '-' || *q == '+'))
+        negative = *q++ == '-';
+    for (; q < end && *q >= '0' && *q <= '9'; q++, digits++) {
+        if (digits >= 18)
+            return -1;
+        result = 10 * result + (*q - '0');
+    }
+    if (digits == 0)
+        return q == *p ? 0 : -1;
+    *p = q;
+    *value = negative ? -result : result;
+    return 1;
+}
+
+/* The 0-based vertex of a corner word "i", "i/t", "i//n" or "i/t/n"; -1 after a failure. */
+static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end, const char *text,
+                             const char *end)
+{
+    const char *p = word;
+    int64_t given, ignored, defined = vertex_count(s);
+    int part;
+    if (signed_integer(&p, word_end, &given) != 1) {
+        cannot_read(s, text, end);
+        return -1;
+    }
+    for (part = 0; part < 2 && p < word_end && *p == '/'; part++) {
+        p++;
+        if (signed_integer(&p, word_end, &ignored) < 0)
+            break;
+    }
+    if (p != word_end) {
+        cannot_read(s, text, end);
+        return -1;
+    }
+    if (given == 0) {
+        fail(s->failure, ERR_PARSE, "re-export the mesh",
+             "line %lld: face corner 0 (OBJ numbers vertices from 1)", (long long)s->line);
+        return -1;
+    }
+    if ((given > 0 && given > defined) || (given < 0 && -given > defined)) {
+        fail(s->failure, ERR_PARSE, "re-export the mesh",
+             "line %lld: face corner %lld refers to a vertex that does not exist (%lld vertices defined before it)",
+             (long long)s->line, (long long)given, (long long)defined);
+        return -1;
+    }
+    return given > 0 ? given - 1 : defined + given;
+}
+
+static int face_line(ObjState *s, const char *p, const char *end, const char *text)
+{
+    const char *word, *word_end;
+    int64_t count, k, *corners;
+    s->corners.size = 0;
+    while (next_word(&p, end, &word, &word_end)) {
+        int64_t vertex = corner_vertex(s, word, word_end, text, end);
+        if (vertex < 0)
+            return -1;
+        if (grow_reserve(&s->corners, sizeof vertex) != 0) {
+            fail(s->failure, ERR_MEMORY, NULL, "out of memory");
+            return -1;
+        }
+        memcpy(s->corners.data + s->corners.size, &vertex, sizeof vertex);
+        s->corners.size += sizeof vertex;
+    }
+    count = (int64_t)(s->corners.size / sizeof(int64_t));
+    if (count < 3) {
+        fail(s->failure, ERR_PARSE, "re-export the mesh",
+             "line %lld: a face needs at least 3 vertices, this one has %lld", (long long)s->line, (long long)count);
+        return -1;
+    }
+    if (grow_reserve(&s->faces, (size_t)(count - 2) * 3 * sizeof(index_t)) != 0) {
+        fail(s->failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    corners = (int64_t *)s->corners.data;
+    for (k = 1; k + 1 < count; k++) {                    /* a fan from the first corner */
+        index_t triangle[3] = {corners[0], corners[k], corners[k + 1]};
+        memcpy(s->faces.data + s->faces.size, triangle, sizeof triangle);
+        s->faces.size += sizeof triangle;
+    }
+    return 0;
+}
+
+static int statement(ObjState *s, const char *text, size_t length)
+{
+    const char *p = text, *end = text + length, *word, *word_end;
+    if (!next_word(&p, end, &word, &word_end) || word_end - word != 1)
+        return 0;
+    if (*word == 'v')
+        return vertex_line(s, p, end, text);
+    if (*word == 'f')
+        return face_line(s, p, end, text);
+    return 0;
+}
+
+/* Whether a line continues on the next one: its last non-blank character is a backslash. */
+static const char *continuation(const char *text, size_t length)
+{
+    const char *q = text + length;
+    while (q > text && is_space(q[-1]))
+        q--;
+    return q > text && q[-1] == '\\' ? q - 1 : NULL;
+}
+
+static int read_statements(ObjState *s, LineReader *r)
+{
+    Growable joined = {0};
+    const char *text, *backslash;
+    size_t length;
+    int status;
+    while ((status = lines_next(r, &text, &length)) == 1) {
+        s->line = r->line;
+        if ((backslash = continuation(text, length)) != NULL) {
+            joined.size = 0;
+            do {                                         /* copy: the reader reuses its buffer */
+                size_t part = (size_t)(backslash - text);
+                if (grow_reserve(&joined, part + 1) != 0) {
+                    fail(s->failure, ERR_MEMORY, NULL, "out of memory");
+                    status = -1;
+                    break;
+                }
+                memcpy(joined.data + joined.size, text, part);
+                joined.data[joined.size + part] = ' ';
+                joined.size += part + 1;
+                status = lines_next(r, &text, &length);
+            } while (status == 1 && (backslash = continuation(text, length)) != NULL);
+            if (status == 1 && grow_reserve(&joined, length) == 0) {
+                memcpy(joined.data + joined.size, text, length);
+                joined.size += length;
+            }
+            if (status == -1)
+                break;
+            text = joined.data;
+            length = joined.size;
+        }
+        if (statement(s, text, length) != 0) {
+            status = -1;
+            break;
+        }
+    }
+    grow_free(&joined);
+    return status;
+}
+
+int read_obj(const char *path, MeshArrays *out, Failure *failure)
+{
+    LineReader r;
+    ObjState s;
+    int64_t size;
+    int fd = open_regular(path, &size, failure), status;
+    memset(out, 0, sizeof *out);
+    memset(&s, 0, sizeof s);
+    s.failure = failure;
+    if (fd < 0)
+        return -1;
+    if (lines_open(&r, fd, size, failure) != 0) {
+        close(fd);
+        return -1;
+    }
+    status = read_statements(&s, &r);
+    lines_close(&r);
+    grow_free(&s.corners);
+    if (status == 0 && s.faces.size == 0)
+        fail(failure, ERR_PARSE, "export the part as a closed surface", "the OBJ file holds no faces");
+    if (status == 0 && failure->kind == ERR_NONE)
+        status = weld_indexed((const double *)s.vertices.data, vertex_count(&s), s.faces.data, 0,
+                              (int64_t)(s.faces.size / (3 * sizeof(index_t))), out, failure);
+    else
+        status = -1;
+    grow_free(&s.vertices);
+    grow_free(&s.faces);
+    return status;
+}

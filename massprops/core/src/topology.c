@@ -1,0 +1,377 @@
+/* Edges, shells and duplicate faces of a triangle mesh (indices only, no coordinates).
+ *
+ * Edges: every directed edge tail -> head is filed under its lower vertex
+ * (a counting sort by vertex, in face order), so each undirected edge is
+ * found by looking only at the few edges of one vertex.  For each undirected
+ * edge we count its uses and its balance (uses from the lower vertex to the
+ * higher minus uses back): a closed, consistently wound surface has balance
+ * 0 on every edge.  Vertex ranges are grouped in parallel; every count is a
+ * sum and every example the first in vertex order, so nothing depends on the
+ * thread count.
+ *
+ * Shells: connected components of faces sharing a vertex, by union-find
+ * (roots are the smallest vertex of their set), numbered by first face.
+ *
+ * Duplicate faces: faces with the same three vertices, found by hashing the
+ * sorted triple; each is compared with the first face of its group, and
+ * counted as the same orientation or the opposite one.
+ */
+#include "core.h"
+#include "topology.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static inline int64_t face_index(const void *faces, int faces32, int64_t k)
+{
+    return faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
+}
+
+int check_indices(const void *faces, int faces32, int64_t m, int64_t n, Failure *failure)
+{
+    int64_t k;
+    if (n >= ((int64_t)1 << 31)) {
+        fail(failure, ERR_VALUE, "split the mesh into parts", "more than 2**31 vertices: too many for the checks");
+        return -1;
+    }
+    for (k = 0; k < 3 * m; k++) {
+        int64_t v = face_index(faces, faces32, k);
+        if (v < 0 || v >= n) {
+            fail(failure, ERR_INDEX, "re-export the mesh",
+                 "face %lld refers to vertex %lld, but there are %lld vertices", (long long)(k / 3), (long long)v,
+                 (long long)n);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* ---- edges ------------------------------------------------------------------------------ */
+
+#define VERTEX_BLOCK 4096
+
+typedef struct {
+    const void *faces;
+    int faces32;
+    int64_t m, n;
+    int64_t *offsets;           /* n + 1: edges filed under vertex v are entries[offsets[v] .. offsets[v+1]) */
+    uint32_t *entries;          /* (head << 1) | 1 if the edge runs from the higher vertex to the lower */
+    EdgeSummary *blocks;        /* one summary per block of VERTEX_BLOCK vertices */
+    int64_t parts;              /* counting and filing: the vertex range split in this many parts */
+    int64_t collapsed;
+} EdgeWork;
+
+static void count_part(void *arg, int64_t part)
+{
+    EdgeWork *w = arg;
+    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, k;
+    for (k = 0; k < 3 * w->m; k++) {
+        int64_t tail = face_index(w->faces, w->faces32, k);
+        int64_t head = face_index(w->faces, w->faces32, k % 3 == 2 ? k - 2 : k + 1);
+        int64_t lower = tail < head ? tail : head;
+        if (tail != head && lower >= low && lower < high)
+            w->offsets[lower + 1]++;
+    }
+}
+
+static void file_part(void *arg, int64_t part)
+{
+    EdgeWork *w = arg;
+    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, k;
+    for (k = 0; k < 3 * w->m; k++) {
+        int64_t tail = face_index(w->faces, w->faces32, k);
+        int64_t head = face_index(w->faces, w->faces32, k % 3 == 2 ? k - 2 : k + 1);
+        int64_t lower = tail < head ? tail : head, higher = tail < head ? head : tail;
+        if (tail != head && lower >= low && lower < high)
+            w->entries[w->offsets[lower]++] = (uint32_t)(higher << 1) | (uint32_t)(tail > head);
+    }
+}
+
+static int compare_entries(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+static void sort_entries(uint32_t *list, int64_t k)
+{
+    int64_t i, j;
+    if (k > 32) {
+        qsort(list, (size_t)k, sizeof *list, compare_entries);
+        return;
+    }
+    for (i = 1; i < k; i++) {
+        uint32_t value = list[i];
+        for (j = i; j > 0 && list[j - 1] > value; j--)
+            list[j] = list[j - 1];
+        list[j] = value;
+    }
+}
+
+static void note_example(int64_t example[2], int64_t a, int64_t b)
+{
+    if (example[0] < 0) {
+        example[0] = a;
+        example[1] = b;
+    }
+}
+
+/* Group the edges of vertex v (entries sorted), adding to `s`, and calling `each` per edge. */
+typedef void (*edge_fn)(void *ctx, int64_t low, int64_t high, int64_t uses, int64_t balance);
+
+static void group_vertex(const EdgeWork *w, int64_t v, EdgeSummary *s, edge_fn each, void *ctx)
+{
+    uint32_t *list = w->entries + w->offsets[v];
+    int64_t k = w->offsets[v + 1] - w->offsets[v], i = 0;
+    sort_entries(list, k);
+    while (i < k) {
+        uint32_t head = list[i] >> 1;
+        int64_t uses = 0, backward = 0, balance;
+        for (; i < k && list[i] >> 1 == head; i++, uses++)
+            backward += list[i] & 1;
+        balance = uses - 2 * backward;
+        s->edges++;
+        if (uses == 1) {
+            s->boundary++;
+            note_example(s->first_boundary, v, head);
+        }
+        if (uses % 2)
+            s->odd++;
+        if (balance) {
+            s->unbalanced++;
+            note_example(s->first_unbalanced, v, head);
+        }
+        if (uses > 2)
+            s->nonmanifold++;
+        if (uses > s->max_uses)
+            s->max_uses = uses;
+        if (each)
+            each(ctx, v, head, uses, balance);
+    }
+}
+
+static void summary_init(EdgeSummary *s)
+{
+    memset(s, 0, sizeof *s);
+    s->first_boundary[0] = s->first_boundary[1] = -1;
+    s->first_unbalanced[0] = s->first_unbalanced[1] = -1;
+}
+
+static void group_block(void *arg, int64_t block)
+{
+    EdgeWork *w = arg;
+    int64_t v, last = (block + 1) * VERTEX_BLOCK < w->n ? (block + 1) * VERTEX_BLOCK : w->n;
+    summary_init(&w->blocks[block]);
+    for (v = block * VERTEX_BLOCK; v < last; v++)
+        group_vertex(w, v, &w->blocks[block], NULL, NULL);
+}
+
+static void merge_summary(EdgeSummary *into, const EdgeSummary *s)
+{
+    into->edges += s->edges;
+    into->boundary += s->boundary;
+    into->odd += s->odd;
+    into->unbalanced += s->unbalanced;
+    into->nonmanifold += s->nonmanifold;
+    if (s->max_uses > into->max_uses)
+        into->max_uses = s->max_uses;
+    if (s->first_boundary[0] >= 0)
+        note_example(into->first_boundary, s->first_boundary[0], s->first_boundary[1]);
+    if (s->first_unbalanced[0] >= 0)
+        note_example(into->first_unbalanced, s->first_unbalanced[0], s->first_unbalanced[1]);
+}
+
+static void append_edge(void *ctx, int64_t low, int64_t high, int64_t uses, int64_t balance)
+{
+    EdgeArrays *a = ctx;
+    a->edges[2 * a->count] = low;
+    a->edges[2 * a->count + 1] = high;
+    a->uses[a->count] = (int32_t)uses;
+    a->balance[a->count] = (int32_t)balance;
+    a->count++;
+}
+
+int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                 EdgeArrays *arrays, Failure *failure)
+{
+    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 0, 0};
+    int64_t blocks = (n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, v, k;
+    summary_init(out);
+    if (check_indices(faces, faces32, m, n, failure) != 0)
+        return -1;
+    w.offsets = calloc((size_t)n + 1, sizeof *w.offsets);
+    w.entries = malloc((size_t)(3 * m > 0 ? 3 * m : 1) * sizeof *w.entries);
+    w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
+    if (!w.offsets || !w.entries || !w.blocks) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        goto done;
+    }
+    w.parts = threads > 1 && m > 20000 ? threads : 1;
+    parallel_blocks(threads, w.parts, count_part, &w);
+    for (v = 0; v < n; v++)
+        w.offsets[v + 1] += w.offsets[v];
+    parallel_blocks(threads, w.parts, file_part, &w);
+    for (v = n; v > 0; v--)                            /* filing advanced each start to the next one's */
+        w.offsets[v] = w.offsets[v - 1];
+    w.offsets[0] = 0;
+    for (k = 0; k < 3 * m; k++) {
+        int64_t tail = face_index(faces, faces32, k), head = face_index(faces, faces32, k % 3 == 2 ? k - 2 : k + 1);
+        out->collapsed += tail == head;
+    }
+    if (arrays) {
+        /* In vertex order on one thread, appending each edge as it is grouped. */
+        EdgeSummary whole;
+        summary_init(&whole);
+        arrays->count = 0;
+        arrays->edges = malloc((size_t)(3 * m + 1) * 2 * sizeof(int64_t));
+        arrays->uses = malloc((size_t)(3 * m + 1) * sizeof(int32_t));
+        arrays->balance = malloc((size_t)(3 * m + 1) * sizeof(int32_t));
+        if (!arrays->edges || !arrays->uses || !arrays->balance) {
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
+            goto done;
+        }
+        for (v = 0; v < n; v++)
+            group_vertex(&w, v, &whole, append_edge, arrays);
+        whole.collapsed = out->collapsed;
+        *out = whole;
+    } else {
+        int64_t collapsed = out->collapsed;
+        parallel_blocks(threads, blocks, group_block, &w);
+        for (k = 0; k < blocks; k++)
+            merge_summary(out, &w.blocks[k]);
+        out->collapsed = collapsed;
+    }
+done:
+    free(w.offsets);
+    free(w.entries);
+    free(w.blocks);
+    return failure->kind == ERR_NONE ? 0 : -1;
+}
+
+/* ---- shells -------------------------------------------------------------------------------- */
+
+static inline int32_t find_root(int32_t *parent, int32_t v)
+{
+    while (parent[v] != v) {
+        parent[v] = parent[parent[v]];                 /* path halving */
+        v = parent[v];
+    }
+    return v;
+}
+
+static inline void join(int32_t *parent, int32_t a, int32_t b)
+{
+    int32_t ra = find_root(parent, a), rb = find_root(parent, b);
+    if (ra < rb)
+        parent[rb] = ra;
+    else if (rb < ra)
+        parent[ra] = rb;
+}
+
+int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *labels, int64_t *count,
+                Failure *failure)
+{
+    int32_t *parent, *number;
+    int64_t f, shells = 0;
+    if (check_indices(faces, faces32, m, n, failure) != 0)
+        return -1;
+    parent = malloc((size_t)(n > 0 ? n : 1) * sizeof *parent);
+    number = malloc((size_t)(n > 0 ? n : 1) * sizeof *number);
+    if (!parent || !number) {
+        free(parent);
+        free(number);
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    for (f = 0; f < n; f++) {
+        parent[f] = (int32_t)f;
+        number[f] = -1;
+    }
+    for (f = 0; f < m; f++) {
+        int32_t a = (int32_t)face_index(faces, faces32, 3 * f);
+        join(parent, a, (int32_t)face_index(faces, faces32, 3 * f + 1));
+        join(parent, a, (int32_t)face_index(faces, faces32, 3 * f + 2));
+    }
+    for (f = 0; f < m; f++) {
+        int32_t root = find_root(parent, (int32_t)face_index(faces, faces32, 3 * f));
+        if (number[root] < 0)
+            number[root] = (int32_t)shells++;
+        if (labels)
+            labels[f] = number[root];
+    }
+    free(parent);
+    free(number);
+    *count = shells;
+    return 0;
+}
+
+/* ---- duplicate faces ----------------------------------------------------------------------- */
+
+static inline void sorted_triple(const void *faces, int faces32, int64_t f, int64_t t[3], int *odd)
+{
+    int64_t a = face_index(faces, faces32, 3 * f), b = face_index(faces, faces32, 3 * f + 1),
+            c = face_index(faces, faces32, 3 * f + 2), swap;
+    int swaps = 0;
+    if (a > b) { swap = a; a = b; b = swap; swaps++; }
+    if (b > c) { swap = b; b = c; c = swap; swaps++; }
+    if (a > b) { swap = a; a = b; b = swap; swaps++; }
+    t[0] = a;
+    t[1] = b;
+    t[2] = c;
+    *odd = swaps & 1;
+}
+
+static inline uint64_t triple_hash(const int64_t t[3])
+{
+    uint64_t h = (uint64_t)t[0] * 0x9E3779B97F4A7C15ULL;
+    h = (h ^ (uint64_t)t[1]) * 0xBF58476D1CE4E5B9ULL;
+    h = (h ^ (uint64_t)t[2]) * 0x94D049BB133111EBULL;
+    return h ^ (h >> 29);
+}
+
+int face_groups(const void *faces, int faces32, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
+                int64_t *same, int64_t *opposite, Failure *failure)
+{
+    int bits = 4;
+    uint64_t size, mask;
+    int64_t *slots, f, k = 0;
+    while (((int64_t)1 << bits) < 2 * m)
+        bits++;
+    size = (uint64_t)1 << bits;
+    mask = size - 1;
+    slots = malloc(size * sizeof *slots);
+    if (!slots) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    memset(slots, 0xFF, size * sizeof *slots);        /* -1: empty */
+    *same = *opposite = 0;
+    for (f = 0; f < m; f++) {
+        int64_t t[3], u[3];
+        int odd, other_odd;
+        uint64_t slot;
+        sorted_triple(faces, faces32, f, t, &odd);
+        for (slot = triple_hash(t) >> (64 - bits);; slot = (slot + 1) & mask) {
+            int64_t g = slots[slot];
+            if (g < 0) {                                  /* a new group, numbered by its first face */
+                slots[slot] = k;
+                first[k] = f;
+                labels[f] = k++;
+                break;
+            }
+            sorted_triple(faces, faces32, first[g], u, &other_odd);
+            if (u[0] == t[0] && u[1] == t[1] && u[2] == t[2]) {
+                labels[f] = g;
+                /* A face with a repeated vertex has no orientation: count it as the same. */
+                if (odd != other_odd && t[0] != t[1] && t[1] != t[2])
+                    ++*opposite;
+                else
+                    ++*same;
+                break;
+            }
+        }
+    }
+    free(slots);
+    *groups = k;
+    return 0;
+}

@@ -1,0 +1,36 @@
+/* Edges, shells and duplicate faces (topology.c). */
+#ifndef MASSPROPS_TOPOLOGY_H
+#define MASSPROPS_TOPOLOGY_H
+
+#include "core.h"
+
+/* Counts over undirected edges (collapsed edges, tail == head, are counted apart). */
+typedef struct {
+    int64_t edges;             /* distinct undirected edges */
+    int64_t boundary;          /* used once */
+    int64_t odd;               /* used an odd number of times */
+    int64_t unbalanced;        /* used more often in one direction than in the other */
+    int64_t nonmanifold;       /* used more than twice */
+    int64_t max_uses;
+    int64_t collapsed;         /* directed edges from a vertex to itself */
+    int64_t first_boundary[2];   /* (lower, higher) vertex of the first such edge in vertex order, or -1 */
+    int64_t first_unbalanced[2];
+} EdgeSummary;
+
+/* Every undirected edge, in order of its lower vertex, then its higher one. */
+typedef struct {
+    int64_t count;
+    int64_t *edges;            /* count x 2: lower, higher */
+    int32_t *uses;
+    int32_t *balance;          /* uses from lower to higher minus uses back */
+} EdgeArrays;
+
+int check_indices(const void *faces, int faces32, int64_t m, int64_t n, Failure *failure);
+int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                 EdgeArrays *arrays, Failure *failure);
+int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *labels, int64_t *count,
+                Failure *failure);
+int face_groups(const void *faces, int faces32, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
+                int64_t *same, int64_t *opposite, Failure *failure);
+
+#endif

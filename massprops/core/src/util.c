@@ -1,0 +1,141 @@
+/* Failures, growable arrays, the parallel block loop, and safe file reading. */
+#define _GNU_SOURCE
+#include "core.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+void fail(Failure *failure, int kind, const char *fix, const char *format, ...)
+{
+    va_list args;
+    if (failure->kind != ERR_NONE)
+        return;                                    /* the first failure is the one reported */
+    failure->kind = kind;
+    va_start(args, format);
+    vsnprintf(failure->message, sizeof failure->message, format, args);
+    va_end(args);
+    snprintf(failure->fix, sizeof failure->fix, "%s", fix ? fix : "");
+}
+
+int grow_reserve(Growable *g, size_t bytes)
+{
+    size_t wanted = g->size + bytes, capacity;
+    char *data;
+    if (wanted <= g->capacity)
+        return 0;
+    capacity = g->capacity ? g->capacity : 4096;
+    while (capacity < wanted)
+        capacity += capacity / 2 + 4096;
+    data = realloc(g->data, capacity);
+    if (!data)
+        return -1;
+    g->data = data;
+    g->capacity = capacity;
+    return 0;
+}
+
+void grow_free(Growable *g)
+{
+    free(g->data);
+    g->data = NULL;
+    g->size = g->capacity = 0;
+}
+
+/* ---- parallel blocks ------------------------------------------------------------------ */
+
+typedef struct {
+    block_fn fn;
+    void *ctx;
+    int64_t blocks;
+    int64_t next;             /* shared counter, taken with __atomic_fetch_add */
+} Loop;
+
+static void *run_blocks(void *arg)
+{
+    Loop *loop = arg;
+    for (;;) {
+        int64_t block = __atomic_fetch_add(&loop->next, 1, __ATOMIC_RELAXED);
+        if (block >= loop->blocks)
+            return NULL;
+        loop->fn(loop->ctx, block);
+    }
+}
+
+#define MAX_THREADS 64
+
+void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx)
+{
+    Loop loop = {fn, ctx, blocks, 0};
+    pthread_t ids[MAX_THREADS];
+    int started = 0, k;
+    if (threads > MAX_THREADS)
+        threads = MAX_THREADS;
+    if (threads > blocks)
+        threads = (int)blocks;
+    for (k = 1; k < threads; k++) {
+        if (pthread_create(&ids[started], NULL, run_blocks, &loop) != 0)
+            break;                               /* fewer threads: the same blocks, the same results */
+        started++;
+    }
+    run_blocks(&loop);
+    for (k = 0; k < started; k++)
+        pthread_join(ids[k], NULL);
+}
+
+/* ---- files ------------------------------------------------------------------------------ */
+
+int open_regular(const char *path, int64_t *size, Failure *failure)
+{
+    struct stat info;
+    /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        failure->os_errno = errno;
+        fail(failure, ERR_OS, NULL, "%s", strerror(errno));
+        return -1;
+    }
+    if (fstat(fd, &info) != 0) {
+        failure->os_errno = errno;
+        fail(failure, ERR_OS, NULL, "%s", strerror(errno));
+        close(fd);
+        return -1;
+    }
+    if (!S_ISREG(info.st_mode)) {
+        close(fd);
+        fail(failure, ERR_PARSE, "name a regular mesh file",
+             "not a regular file (a FIFO, device or socket cannot be read as a mesh)");
+        return -1;
+    }
+    fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    *size = (int64_t)info.st_size;
+    return fd;
+}
+
+int read_exactly(int fd, char *buffer, size_t bytes, int64_t offset, Failure *failure)
+{
+    size_t done = 0;
+    while (done < bytes) {
+        ssize_t got = pread(fd, buffer + done, bytes - done, (off_t)(offset + (int64_t)done));
+        if (got < 0) {
+            if (errno == EINTR)
+                continue;
+            failure->os_errno = errno;
+            fail(failure, ERR_OS, NULL, "%s", strerror(errno));
+            return -1;
+        }
+        if (got == 0) {
+            fail(failure, ERR_PARSE, "re-export the mesh, and do not change the file while it is read",
+                 "the file ended early (it is truncated, or shrank while being read)");
+            return -1;
+        }
+        done += (size_t)got;
+    }
+    return 0;
+}

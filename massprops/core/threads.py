@@ -1,0 +1,31 @@
+"""How many threads the compiled core may use: ``MASSPROPS_THREADS``, else the CPUs this process may use."""
+
+from __future__ import annotations
+
+import os
+
+from ..errors import OptionError
+
+__all__ = ["thread_count"]
+
+
+def thread_count():
+    """Threads for the compiled core.
+
+    ``MASSPROPS_THREADS`` caps the count (1 turns threading off); by default
+    it is the number of CPUs this process may use.  Results never depend on
+    it: work is split into fixed blocks whose results are combined exactly.
+
+    Raises
+    ------
+    OptionError
+        ``MASSPROPS_THREADS`` is set to something other than a whole number.
+    """
+    wanted = os.environ.get("MASSPROPS_THREADS", "").strip()
+    if wanted:
+        try:
+            return max(1, int(wanted))
+        except ValueError:
+            raise OptionError(f"MASSPROPS_THREADS must be a whole number of threads, got {wanted!r}",
+                              fix="set it to 1, 2, ... or unset it") from None
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
