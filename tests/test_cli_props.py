@@ -7,7 +7,7 @@ import pytest
 
 from badfiles import make_bad_files
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.cli import main
 from massprops.io.stl import write_binary
 from massprops.report import CSV_COLUMNS

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.errors import MeshFormatError
 from massprops.io import read

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops import solids
+from massprops.validation import solids
 from massprops.core import edge_summary, face_groups, shells, weld_corners, weld_indexed
 from massprops.errors import MassPropsError
 from massprops.mesh import TriangleMesh, check_mesh

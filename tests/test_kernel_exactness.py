@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.core import integrate, reference_frame
 
 

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import massprops.cli
-from massprops import scene as assembly
-from massprops import solids
+from massprops.scene import assembly
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.frames import Pose
 from massprops.io.stl import write_binary

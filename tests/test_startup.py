@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from massprops import solids
+from massprops.validation import solids
 from massprops.core import thread_count
 from massprops.errors import OptionError
 from massprops.io.stl import write_binary

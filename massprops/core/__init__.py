@@ -11,20 +11,19 @@ with the callers.
 - :mod:`.topology`: edge counts, shells, duplicate faces;
 - :mod:`.frame` and :mod:`.moments`: the integration frame and the moment sums;
 - :mod:`.determinants`: signed volumes of tetrahedra and shells, with bounds;
-- :mod:`.threads`: ``MASSPROPS_THREADS``.
+- :mod:`.threads`: ``MASSPROPS_THREADS``;
+- :mod:`.rounding`: the unit roundoff ``U`` and γ(k), in which every bound is written.
 """
 
 from .determinants import shell_determinants, tetra_determinants
 from .frame import reference_frame
 from .moments import Moments, integrate
 from .readers import read_obj, read_stl
+from .rounding import U, gamma
 from .threads import thread_count
 from .topology import EdgeSummary, FaceGroups, distinct_faces, edge_summary, face_groups, shells
 from .weld import weld_corners, weld_indexed
 
-# The unit roundoff of float64 (round to nearest): every error bound is a multiple of it.
-UNIT_ROUNDOFF = 2.0 ** -53
-
-__all__ = ["UNIT_ROUNDOFF", "Moments", "integrate", "reference_frame", "tetra_determinants", "shell_determinants",
+__all__ = ["U", "gamma", "Moments", "integrate", "reference_frame", "tetra_determinants", "shell_determinants",
            "read_stl", "read_obj", "weld_corners", "weld_indexed", "EdgeSummary", "edge_summary", "shells",
            "FaceGroups", "face_groups", "distinct_faces", "thread_count"]

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import read_obj
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 
 def read(path):

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import read_stl
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 
