@@ -246,3 +246,24 @@ def test_large_mesh_checks_and_thread_count(monkeypatch):
     assert checks["shells"] == count == 2 and flipped.unbalanced == 3 and flipped.odd == 0
     labels, _ = shells(mesh.faces, n)
     assert set(labels[:half].tolist()) == {0} and set(labels[half:].tolist()) == {1}
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_welding_on_several_threads_numbers_vertices_as_one_thread_does(monkeypatch, tmp_path, dtype):
+    """Large enough to be split among threads: the same vertices, numbered by first appearance."""
+    from massprops.io import read
+    from massprops.io.stl import write_binary
+    rng = np.random.default_rng(11)
+    pool = rng.normal(size=(30_000, 3)).astype(dtype)
+    corners = pool[rng.integers(0, pool.shape[0], size=(80_000, 3))]
+    expected = _weld_oracle(corners)
+    path = tmp_path / "soup.stl"
+    write_binary(path, corners)
+    for threads in ("1", "2", "3"):
+        monkeypatch.setenv("MASSPROPS_THREADS", threads)
+        vertices, faces = weld_corners(corners)
+        assert faces.ravel().tolist() == expected, threads
+        assert np.array_equal(vertices[faces], corners.astype(np.float64))
+        if dtype == np.float32:
+            mesh = read(path)
+            assert mesh.faces.ravel().tolist() == expected and np.array_equal(mesh.vertices, vertices)

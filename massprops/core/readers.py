@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import MeshFormatError
 from . import _core
+from .threads import thread_count
 
 __all__ = ["read_stl", "read_obj"]
 
@@ -35,7 +36,7 @@ def read_stl(path):
     binary : bool
     """
     try:
-        vertices, faces, binary = _core.read_stl(os.fspath(path))
+        vertices, faces, binary = _core.read_stl(os.fspath(path), thread_count())
     except _core.ParseError as error:
         raise MeshFormatError(error.args[0], path=path, fix=error.args[1] or None) from None
     return np.asarray(vertices), np.asarray(faces), binary

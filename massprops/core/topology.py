@@ -35,7 +35,9 @@ class EdgeSummary:
         non-zero balance; used more than twice.
     max_uses : int
     collapsed : int
-        Directed edges from a vertex to itself (faces with a repeated vertex).
+        Directed edges from a vertex to itself.
+    degenerate_faces : int
+        Faces with a repeated vertex.
     first_boundary, first_unbalanced : (int, int) or None
         The (lower, higher) vertices of the first such edge, in vertex order.
     edge_vertices : ndarray, shape (k, 2), int64, or None
@@ -50,6 +52,7 @@ class EdgeSummary:
     nonmanifold: int
     max_uses: int
     collapsed: int
+    degenerate_faces: int
     first_boundary: Optional[tuple]
     first_unbalanced: Optional[tuple]
     edge_vertices: Optional[np.ndarray] = None

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from .arrays import as_indices, as_points
+from .threads import thread_count
 
 __all__ = ["weld_corners", "weld_indexed"]
 
@@ -34,7 +35,7 @@ def weld_corners(corners):
     corners = np.ascontiguousarray(corners, dtype=dtype)
     if corners.shape[-1:] != (3,) or corners.size % 9:
         raise ValueError(f"corners: expected shape (m, 3, 3) or (3m, 3), got {corners.shape}")
-    vertices, faces = _core.weld_corners(corners)
+    vertices, faces = _core.weld_corners(corners, thread_count())
     return np.asarray(vertices), np.asarray(faces)
 
 

@@ -147,9 +147,8 @@ def check_mesh(mesh, path=None):
                                 fix="re-export the mesh")
     if not np.isfinite(vertices).all():
         _refuse_non_finite(vertices, faces, path)
-    degenerate = int(np.count_nonzero((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2])
-                                      | (faces[:, 2] == faces[:, 0])))
     edges = edge_summary(faces, vertices.shape[0])
+    degenerate = edges.degenerate_faces
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
     labels, n_shells = shells(faces, vertices.shape[0])

@@ -49,12 +49,18 @@ void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx);
 
 /* A table of distinct points by exact coordinates: float32 points are kept as their
  * exactly widened float64 values; -0.0 is stored as +0.0 (they are equal), NaNs by bits. */
+#define RECENT 4096
+
 typedef struct {
     uint64_t *slots;          /* (tag << 32) | (vertex + 1); 0 = empty */
     uint64_t mask;
     int bits;
     Growable vertices;        /* double[3] per distinct point, in order of first appearance */
     int64_t count;
+    /* A small direct-mapped cache of recently welded points: meshes reuse a vertex a few faces
+     * after its first use, so most lookups end here, in cache, not in the large table. */
+    struct { uint64_t key[3]; int64_t vertex; } *recent;
+    uint64_t recent_mask;
 } Welder;
 
 int welder_init(Welder *w, int64_t expected);
@@ -62,10 +68,31 @@ void welder_free(Welder *w);
 /* The vertex number of a point (a new one if not seen before), or -1 when memory ran out. */
 int64_t weld_point64(Welder *w, const double point[3]);
 int64_t weld_point32(Welder *w, const float point[3]);
+/* Weld `count` points (count x 3 doubles) into out[0 .. count); 0, or -1 when memory ran out. */
+int weld_points(Welder *w, const double *points, int64_t count, index_t *out);
+
+/* Welding on several threads: points are split by hash into parts, each welded by its own
+ * thread into its own table; a sequential pass then numbers the vertices in order of first
+ * appearance, so the result is the same for any number of parts. */
+#define MAX_PARTS 8
+
+typedef struct {
+    int parts;
+    Welder part[MAX_PARTS];
+    Growable global[MAX_PARTS];   /* int64 per vertex of a part: its number, -1 before it is seen */
+    int64_t count;
+} SplitWelder;
+
+int split_init(SplitWelder *s, int threads, int64_t expected_points);
+void split_free(SplitWelder *s);
+/* Weld `count` points (count x 3 doubles) into out[0 .. count); 0, or -1 when memory ran out. */
+int split_points(SplitWelder *s, const double *points, int64_t count, index_t *out);
 
 typedef struct MeshArrays MeshArrays;
+/* The welded vertices (n x 3) into out->vertices, out->n; frees the welder. */
+int split_finish(SplitWelder *s, MeshArrays *out, Failure *failure);
 /* Weld m triangles given by their corners (3m points, float32 if `single`, else float64). */
-int weld_corners(const void *corners, int single, int64_t m, MeshArrays *out, Failure *failure);
+int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure);
 /* Weld the vertices that faces use (int32 or int64 indices, checked), numbered by first use. */
 int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
                  MeshArrays *out, Failure *failure);
@@ -85,7 +112,7 @@ struct MeshArrays {
     int binary;               /* STL: 1 binary (float32 coordinates), 0 ASCII */
 };
 
-int read_stl(const char *path, MeshArrays *out, Failure *failure);
+int read_stl(const char *path, int threads, MeshArrays *out, Failure *failure);
 int read_obj(const char *path, MeshArrays *out, Failure *failure);
 
 /* Open a regular file for reading without blocking on FIFOs; -1 and a failure otherwise. */

@@ -43,7 +43,20 @@ typedef struct {
     const KernelInput *in;
     Scaling scaling;
     BlockResult *blocks;
+    double *scaled;                   /* n x 3: the vertices in the frame, computed once */
 } Work;
+
+#define VERTEX_BLOCK 65536
+
+static void scale_block(void *arg, int64_t block)
+{
+    Work *w = arg;
+    int64_t v, last = (block + 1) * VERTEX_BLOCK < w->in->n ? (block + 1) * VERTEX_BLOCK : w->in->n;
+    int i;
+    for (v = block * VERTEX_BLOCK; v < last; v++)
+        for (i = 0; i < 3; i++)
+            w->scaled[3 * v + i] = scaled(w->in->vertices[3 * v + i], w->in->reference[i], &w->scaling);
+}
 
 void scaling_init(Scaling *s, int scale_exp)
 {
@@ -102,33 +115,76 @@ static int refine(const double corner[3][3], double *det, double *bound)
     return 2;
 }
 
-#define SUM2(q, value)                                                  \
-    do {                                                                \
-        double x_ = (value), h_ = r->hi[q][l], s_ = h_ + x_;            \
-        double b_ = s_ - h_;                                            \
-        r->lo[q][l] += (h_ - (s_ - b_)) + (x_ - b_);                    \
-        r->hi[q][l] = s_;                                               \
-    } while (0)
+/* Lane accumulators of one block: Sum2 (hi, lo) per summed quantity, plain sums for the rest. */
+typedef struct {
+    double hi[SUMMED][LANES], lo[SUMMED][LANES];
+    double plain[PLAIN][LANES];
+} Lanes;
 
-/* LANES faces from f0 (count of them real; the rest contribute zeros). */
-static void lane_batch(const Work *w, int64_t f0, int count, BlockResult *r)
+static inline void sum2(double *restrict hi, double *restrict lo, const double *restrict x)
+{
+    int l;
+    for (l = 0; l < LANES; l++) {
+        double h = hi[l], s = h + x[l], b = s - h;
+        lo[l] += (h - (s - b)) + (x[l] - b);
+        hi[l] = s;
+    }
+}
+
+/* det · Σ_p u_p,i u_p,j over the three pairs, added to quantity q. */
+static inline void second_term(Lanes *acc, int q, const double *restrict det, double u[3][3][LANES], int i, int j)
+{
+    double x[LANES];
+    int l;
+    for (l = 0; l < LANES; l++)
+        x[l] = det[l] * ((u[0][i][l] * u[0][j][l] + u[1][i][l] * u[1][j][l]) + u[2][i][l] * u[2][j][l]);
+    sum2(acc->hi[q], acc->lo[q], x);
+}
+
+/* The scaled corners of LANES faces, one array per corner and axis (structure of arrays). */
+typedef struct {
+    double p[3][3][LANES];                   /* [corner][axis][lane] */
+} Corners;
+
+/* LANES faces from f0 (count of them real; the rest contribute zeros).  Returns 0, or -1 and
+ * the bad face in r->bad_face when an index is out of range. */
+static inline __attribute__((always_inline)) int lane_batch(const Work *w, int64_t f0, int count, Lanes *acc,
+                                                         BlockResult *r)
 {
     const KernelInput *in = w->in;
-    double corner[LANES][3][3], det[LANES], bound[LANES], area[LANES], products[LANES];
-    int l, hard = 0;
+    Corners c;
+    double det[LANES], bound[LANES], area[LANES], products[LANES], x[LANES];
+    int l, k, i, hard = 0;
     for (l = 0; l < LANES; l++) {
-        if (l < count && load_face(in, &w->scaling, f0 + l, corner[l]) != 0) {
-            if (r->bad_face < 0)
-                r->bad_face = f0 + l;
-            count = l;                           /* the block is abandoned: the caller raises */
+        int64_t v[3] = {0, 0, 0};
+        if (l < count) {
+            for (k = 0; k < 3; k++) {
+                v[k] = face_vertex(in, 3 * (f0 + l) + k);
+                if ((uint64_t)v[k] >= (uint64_t)in->n) {
+                    r->bad_face = f0 + l;
+                    return -1;
+                }
+            }
         }
-        if (l >= count)
-            memset(corner[l], 0, sizeof corner[l]);
+        for (k = 0; k < 3; k++)
+            for (i = 0; i < 3; i++)
+                c.p[k][i][l] = l < count ? w->scaled[3 * v[k] + i] : 0.0;
     }
+    /* det_and_bound, lane by lane on the structure of arrays (so that it vectorises) */
     for (l = 0; l < LANES; l++) {
-        det_and_bound(corner[l][0], corner[l][1], corner[l][2], &det[l], &bound[l], &area[l], &products[l]);
-        hard |= bound[l] > REFINE_ABOVE * fabs(det[l]);
+        double ax = c.p[0][0][l], ay = c.p[0][1][l], az = c.p[0][2][l];
+        double e1x = c.p[1][0][l] - ax, e1y = c.p[1][1][l] - ay, e1z = c.p[1][2][l] - az;
+        double e2x = c.p[2][0][l] - ax, e2y = c.p[2][1][l] - ay, e2z = c.p[2][2][l] - az;
+        double p0 = e1y * e2z, q0 = e1z * e2y, p1 = e1z * e2x, q1 = e1x * e2z, p2 = e1x * e2y, q2 = e1y * e2x;
+        double n0 = p0 - q0, n1 = p1 - q1, n2 = p2 - q2;
+        double s0 = fabs(p0) + fabs(q0), s1 = fabs(p1) + fabs(q1), s2 = fabs(p2) + fabs(q2);
+        det[l] = (ax * n0 + ay * n1) + az * n2;
+        bound[l] = DET_BOUND * ((fabs(ax) * s0 + fabs(ay) * s1) + fabs(az) * s2);
+        area[l] = sqrt((n0 * n0 + n1 * n1) + n2 * n2);
+        products[l] = (s0 + s1) + s2;
     }
+    for (l = 0; l < LANES; l++)
+        hard |= bound[l] > REFINE_ABOVE * fabs(det[l]);
     if (in->area_measure) {
         for (l = 0; l < LANES; l++) {
             /* |n| from the rounded cross product: γ3 of its components' products, γ3 for the length. */
@@ -138,7 +194,12 @@ static void lane_batch(const Work *w, int64_t f0, int count, BlockResult *r)
     } else if (hard) {
         for (l = 0; l < count; l++)
             if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
-                int kind = refine(corner[l], &det[l], &bound[l]);
+                double corner[3][3];
+                int kind;
+                for (k = 0; k < 3; k++)
+                    for (i = 0; i < 3; i++)
+                        corner[k][i] = c.p[k][i][l];
+                kind = refine(corner, &det[l], &bound[l]);
                 r->refined += kind >= 1;
                 r->exact += kind == 2;
             }
@@ -151,43 +212,64 @@ static void lane_batch(const Work *w, int64_t f0, int count, BlockResult *r)
             det[l] *= weight;
             bound[l] = fabs(weight) * bound[l] * (1.0 + 2.0 * UNIT_ROUNDOFF) + 2.0 * UNIT_ROUNDOFF * fabs(det[l]);
         }
+    sum2(acc->hi[Q_DET], acc->lo[Q_DET], det);
     for (l = 0; l < LANES; l++) {
-        const double *a = corner[l][0], *b = corner[l][1], *c = corner[l][2];
-        double d = det[l];
-        SUM2(Q_DET, d);
-        r->plain[P_ABS][l] += fabs(d);
-        r->plain[P_BOUND][l] += bound[l];
-        r->plain[P_AREA][l] += area[l];
-        if (in->order >= 1) {
-            double ux[3] = {a[0] + b[0], b[0] + c[0], c[0] + a[0]};
-            double uy[3] = {a[1] + b[1], b[1] + c[1], c[1] + a[1]};
-            double uz[3] = {a[2] + b[2], b[2] + c[2], c[2] + a[2]};
-            SUM2(Q_F0, d * ((ux[0] + ux[1]) + ux[2]));
-            SUM2(Q_F1, d * ((uy[0] + uy[1]) + uy[2]));
-            SUM2(Q_F2, d * ((uz[0] + uz[1]) + uz[2]));
-            if (in->order >= 2) {
-                SUM2(Q_XX, d * ((ux[0] * ux[0] + ux[1] * ux[1]) + ux[2] * ux[2]));
-                SUM2(Q_YY, d * ((uy[0] * uy[0] + uy[1] * uy[1]) + uy[2] * uy[2]));
-                SUM2(Q_ZZ, d * ((uz[0] * uz[0] + uz[1] * uz[1]) + uz[2] * uz[2]));
-                SUM2(Q_XY, d * ((ux[0] * uy[0] + ux[1] * uy[1]) + ux[2] * uy[2]));
-                SUM2(Q_YZ, d * ((uy[0] * uz[0] + uy[1] * uz[1]) + uy[2] * uz[2]));
-                SUM2(Q_ZX, d * ((uz[0] * ux[0] + uz[1] * ux[1]) + uz[2] * ux[2]));
+        acc->plain[P_ABS][l] += fabs(det[l]);
+        acc->plain[P_BOUND][l] += bound[l];
+        acc->plain[P_AREA][l] += area[l];
+    }
+    if (in->order >= 1) {
+        /* the pair sums u = a + b, b + c, c + a, per axis */
+        double u[3][3][LANES];                /* [pair][axis][lane] */
+        for (i = 0; i < 3; i++)
+            for (l = 0; l < LANES; l++) {
+                u[0][i][l] = c.p[0][i][l] + c.p[1][i][l];
+                u[1][i][l] = c.p[1][i][l] + c.p[2][i][l];
+                u[2][i][l] = c.p[2][i][l] + c.p[0][i][l];
             }
+        for (i = 0; i < 3; i++) {
+            for (l = 0; l < LANES; l++)
+                x[l] = det[l] * ((u[0][i][l] + u[1][i][l]) + u[2][i][l]);
+            sum2(acc->hi[Q_F0 + i], acc->lo[Q_F0 + i], x);
+        }
+        if (in->order >= 2) {
+            second_term(acc, Q_XX, det, u, 0, 0);
+            second_term(acc, Q_YY, det, u, 1, 1);
+            second_term(acc, Q_ZZ, det, u, 2, 2);
+            second_term(acc, Q_XY, det, u, 0, 1);
+            second_term(acc, Q_YZ, det, u, 1, 2);
+            second_term(acc, Q_ZX, det, u, 2, 0);
         }
     }
+    return 0;
 }
 
-static void run_block(void *arg, int64_t block)
+/* On x86-64 Linux the block loop is also compiled for AVX2 (four lanes a vector instead of two)
+ * and the better one is picked when the module loads; both do the same IEEE operations in the
+ * same order (no contraction, no reassociation), so the results are the same bits. */
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
+#define VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define VECTOR_CLONES
+#endif
+
+VECTOR_CLONES static void run_block(void *arg, int64_t block)
 {
     Work *w = arg;
     BlockResult *r = &w->blocks[block];
+    Lanes acc;
     int64_t f, first = block * KERNEL_BLOCK, last = first + KERNEL_BLOCK;
     if (last > w->in->m)
         last = w->in->m;
     memset(r, 0, sizeof *r);
+    memset(&acc, 0, sizeof acc);
     r->bad_face = -1;
-    for (f = first; f < last && r->bad_face < 0; f += LANES)
-        lane_batch(w, f, (int)(last - f < LANES ? last - f : LANES), r);
+    for (f = first; f < last; f += LANES)
+        if (lane_batch(w, f, (int)(last - f < LANES ? last - f : LANES), &acc, r) != 0)
+            break;
+    memcpy(r->hi, acc.hi, sizeof acc.hi);
+    memcpy(r->lo, acc.lo, sizeof acc.lo);
+    memcpy(r->plain, acc.plain, sizeof acc.plain);
 }
 
 static double largest(const double *values, int count)
@@ -203,7 +285,7 @@ static double largest(const double *values, int count)
 int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
 {
     int64_t blocks = (in->m + KERNEL_BLOCK - 1) / KERNEL_BLOCK, b;
-    Work w = {in, {0}, NULL};
+    Work w = {in, {0}, NULL, NULL};
     ExactSum summed[SUMMED], plain[PLAIN];
     double g, sum2, abs_up, bound_up, r = in->radius, tiny, F[3], weight_max = 0.0;
     int q, l;
@@ -215,7 +297,15 @@ int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
+    w.scaled = malloc((size_t)(in->n > 0 ? in->n : 1) * 3 * sizeof(double));
+    if (!w.scaled) {
+        free(w.blocks);
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    parallel_blocks(in->threads, (in->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, scale_block, &w);
     parallel_blocks(in->threads, blocks, run_block, &w);
+    free(w.scaled);
     for (q = 0; q < SUMMED; q++)
         exact_init(&summed[q]);
     for (q = 0; q < PLAIN; q++)

@@ -11,7 +11,7 @@ int lines_open(LineReader *r, int fd, int64_t size, Failure *failure)
     r->fd = fd;
     r->size = size;
     r->failure = failure;
-    r->capacity = LINE_CHUNK;
+    r->capacity = size + 16 < (int64_t)LINE_CHUNK ? (size_t)size + 16 : LINE_CHUNK;     /* small files: small buffers */
     r->buffer = malloc(r->capacity);
     if (!r->buffer) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");
@@ -40,7 +40,7 @@ static int refill(LineReader *r)
         r->start = 0;
         r->end = rest;
     }
-    if (r->capacity - r->end < LINE_CHUNK / 2) {
+    if (r->capacity - r->end < LINE_CHUNK / 2 && (int64_t)(r->capacity - r->end) < r->size - r->offset) {
         char *bigger;
         if (r->capacity >= MAX_LINE + LINE_CHUNK) {
             fail(r->failure, ERR_PARSE, "check that this is a text mesh file",

@@ -160,16 +160,17 @@ static PyObject *mesh_result(MeshArrays *mesh, int with_binary)
 
 /* ---- readers and welding ------------------------------------------------------------------ */
 
-static PyObject *read_file(PyObject *args, int (*reader)(const char *, MeshArrays *, Failure *), int stl)
+static PyObject *read_file(PyObject *args, int stl)
 {
     PyObject *path;
     MeshArrays mesh;
     Failure failure = {0};
-    int status;
-    if (!PyArg_ParseTuple(args, "O&", PyUnicode_FSConverter, &path))
+    int status, threads = 1;
+    if (!PyArg_ParseTuple(args, stl ? "O&i" : "O&", PyUnicode_FSConverter, &path, &threads))
         return NULL;
     Py_BEGIN_ALLOW_THREADS
-    status = reader(PyBytes_AS_STRING(path), &mesh, &failure);
+    status = stl ? read_stl(PyBytes_AS_STRING(path), threads, &mesh, &failure)
+                 : read_obj(PyBytes_AS_STRING(path), &mesh, &failure);
     Py_END_ALLOW_THREADS
     if (status != 0) {
         PyObject *name = PyUnicode_DecodeFSDefault(PyBytes_AS_STRING(path));
@@ -182,8 +183,8 @@ static PyObject *read_file(PyObject *args, int (*reader)(const char *, MeshArray
     return mesh_result(&mesh, stl);
 }
 
-static PyObject *core_read_stl(PyObject *self, PyObject *args) { return read_file(args, read_stl, 1); }
-static PyObject *core_read_obj(PyObject *self, PyObject *args) { return read_file(args, read_obj, 0); }
+static PyObject *core_read_stl(PyObject *self, PyObject *args) { return read_file(args, 1); }
+static PyObject *core_read_obj(PyObject *self, PyObject *args) { return read_file(args, 0); }
 
 static PyObject *core_weld_corners(PyObject *self, PyObject *args)
 {
@@ -191,9 +192,10 @@ static PyObject *core_weld_corners(PyObject *self, PyObject *args)
     Py_buffer view;
     MeshArrays mesh;
     Failure failure = {0};
-    int kind, status;
+    int kind, status, threads;
     Py_ssize_t count;
-    if (!PyArg_ParseTuple(args, "O", &object) || !(kind = get_array(object, &view, ARRAY_F64 | ARRAY_F32, "corners")))
+    if (!PyArg_ParseTuple(args, "Oi", &object, &threads)
+            || !(kind = get_array(object, &view, ARRAY_F64 | ARRAY_F32, "corners")))
         return NULL;
     count = view.len / view.itemsize;
     if (count % 9) {
@@ -202,7 +204,7 @@ static PyObject *core_weld_corners(PyObject *self, PyObject *args)
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    status = weld_corners(view.buf, kind == ARRAY_F32, count / 9, &mesh, &failure);
+    status = weld_corners(view.buf, kind == ARRAY_F32, count / 9, threads, &mesh, &failure);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&view);
     return status ? raise_failure(&failure, NULL) : mesh_result(&mesh, 0);
@@ -256,10 +258,10 @@ static PyObject *core_edge_summary(PyObject *self, PyObject *args)
         free(arrays.balance);
         return raise_failure(&failure, NULL);
     }
-    result = Py_BuildValue("{sLsLsLsLsLsLsLs(LL)s(LL)}", "edges", (long long)s.edges, "boundary", (long long)s.boundary,
+    result = Py_BuildValue("{sLsLsLsLsLsLsLsLs(LL)s(LL)}", "edges", (long long)s.edges, "boundary", (long long)s.boundary,
                            "odd", (long long)s.odd, "unbalanced", (long long)s.unbalanced, "nonmanifold",
                            (long long)s.nonmanifold, "max_uses", (long long)s.max_uses, "collapsed",
-                           (long long)s.collapsed, "first_boundary", (long long)s.first_boundary[0],
+                           (long long)s.collapsed, "degenerate_faces", (long long)s.degenerate_faces, "first_boundary", (long long)s.first_boundary[0],
                            (long long)s.first_boundary[1], "first_unbalanced", (long long)s.first_unbalanced[0],
                            (long long)s.first_unbalanced[1]);
     if (result && with_arrays) {
@@ -540,9 +542,9 @@ static PyObject *core_shift_is_exact(PyObject *self, PyObject *args)
 }
 
 static PyMethodDef methods[] = {
-    {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path) -> (vertices, faces, binary)"},
+    {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
     {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces)"},
-    {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners) -> (vertices, faces)"},
+    {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners, threads) -> (vertices, faces)"},
     {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},

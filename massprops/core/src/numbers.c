@@ -5,8 +5,11 @@
  * underscores are refused), so nothing float() refuses is read (no hex, no
  * "nan(...)").  Tokens of at most 19 significant digits whose value and
  * power of ten are exact doubles take Clinger's fast path: one correctly
- * rounded multiplication or division of exact operands.  The rest go to
- * glibc's strtod_l in the "C" locale, which rounds correctly.
+ * rounded multiplication or division of exact operands.  Up to 19 digits
+ * with a power of ten up to 10**19 (the "%.17g" a mesh exporter writes) are
+ * rounded exactly in 128-bit integers: M · 10**k, or M · 2**s / 10**k with its
+ * remainder as a sticky bit.  The rest go to glibc's strtod_l in the "C"
+ * locale, which rounds correctly.
  */
 #define _GNU_SOURCE
 #include "core.h"
@@ -30,6 +33,60 @@ static const double powers_of_ten[23] = {
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
 static int is_digit(char c) { return c >= '0' && c <= '9'; }
+
+#if defined(__SIZEOF_INT128__)
+typedef unsigned __int128 u128;
+
+static const uint64_t exact_powers[20] = {
+    1ULL, 10ULL, 100ULL, 1000ULL, 10000ULL, 100000ULL, 1000000ULL, 10000000ULL, 100000000ULL, 1000000000ULL,
+    10000000000ULL, 100000000000ULL, 1000000000000ULL, 10000000000000ULL, 100000000000000ULL,
+    1000000000000000ULL, 10000000000000000ULL, 100000000000000000ULL, 1000000000000000000ULL,
+    10000000000000000000ULL};
+
+static int bit_length(u128 x)
+{
+    uint64_t high = (uint64_t)(x >> 64);
+    return high ? 128 - __builtin_clzll(high) : (uint64_t)x ? 64 - __builtin_clzll((uint64_t)x) : 0;
+}
+
+/* x · 2**scale rounded to nearest (ties to even), `sticky` meaning x is a little above its value;
+ * -1 if the result could be subnormal or out of range (then the caller takes the slow path). */
+static int round_scaled(u128 x, int scale, int sticky, double *value)
+{
+    int bits = bit_length(x), shift = bits > 53 ? bits - 53 : 0;
+    uint64_t kept = (uint64_t)(x >> shift);
+    if (shift > 0) {
+        u128 rest = x & (((u128)1 << shift) - 1), half = (u128)1 << (shift - 1);
+        if (rest > half || (rest == half && (sticky || (kept & 1))))
+            kept++;                                  /* 2**53 after a carry is still exact */
+    } else if (sticky) {
+        return -1;                                   /* cannot happen: x has at least 63 bits then */
+    }
+    if (bits + scale > 1000 || bits + scale < -1000)
+        return -1;
+    *value = ldexp((double)kept, shift + scale);     /* exact: a normal double times a power of two */
+    return 0;
+}
+
+/* mantissa · 10**exponent correctly rounded, for |exponent| <= 19; -1 if out of that range. */
+static int exact_decimal(uint64_t mantissa, int64_t exponent, double *value)
+{
+    if (mantissa == 0) {
+        *value = 0.0;
+        return 0;
+    }
+    if (exponent >= 0 && exponent <= 19)
+        return round_scaled((u128)mantissa * exact_powers[exponent], 0, 0, value);
+    if (exponent < 0 && exponent >= -19) {
+        uint64_t divisor = exact_powers[-exponent];
+        /* shift so that the quotient has 64 bits: enough for 53 and a rounding bit */
+        int shift = 64 + bit_length(divisor) - bit_length(mantissa);
+        u128 numerator = (u128)mantissa << shift, quotient = numerator / divisor;
+        return round_scaled(quotient, -shift, numerator != quotient * divisor, value);
+    }
+    return -1;
+}
+#endif
 
 static int special_value(const char *p, size_t length, double *value)
 {
@@ -119,6 +176,13 @@ int parse_double(const char *start, const char *end, double *value)
             *value = -*value;
         return 0;
     }
+#if defined(__SIZEOF_INT128__)
+    if (significant <= 19 && exact_decimal(mantissa, exponent, value) == 0) {
+        if (negative)
+            *value = -*value;
+        return 0;
+    }
+#endif
     *value = slow_path(start, (size_t)(end - start));
     return 0;
 }

@@ -17,7 +17,7 @@
 
 #define HEADER 84
 #define RECORD 50
-#define RECORDS_PER_READ 8192
+#define RECORDS_PER_READ 65536
 
 static uint32_t little_endian32(const unsigned char *p)
 {
@@ -53,53 +53,50 @@ static int looks_like_text(const unsigned char *bytes, size_t length)
     return 1;
 }
 
-static int read_binary(int fd, int64_t count, MeshArrays *out, Failure *failure)
+static int read_binary(int fd, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
-    Welder w;
-    unsigned char *buffer = malloc((size_t)RECORDS_PER_READ * RECORD);
+    SplitWelder w;
+    int64_t per_read = count < RECORDS_PER_READ ? count : RECORDS_PER_READ;
+    unsigned char *buffer = malloc((size_t)per_read * RECORD);
+    double *wide = malloc((size_t)per_read * 9 * sizeof(double));
     int64_t done = 0;
     out->m = count;
     out->binary = 1;
     out->faces = malloc((size_t)count * 3 * sizeof(index_t));
-    if (!buffer || !out->faces || welder_init(&w, count / 2 + 16) != 0) {
+    if (!buffer || !wide || !out->faces || split_init(&w, threads, 3 * count) != 0) {
         free(buffer);
+        free(wide);
         free(out->faces);
         out->faces = NULL;
         fail(failure, ERR_MEMORY, NULL, "out of memory for %lld triangles", (long long)count);
         return -1;
     }
     while (done < count) {
-        int64_t records = count - done < RECORDS_PER_READ ? count - done : RECORDS_PER_READ, k;
+        int64_t records = count - done < per_read ? count - done : per_read, k;
         if (read_exactly(fd, (char *)buffer, (size_t)(records * RECORD), HEADER + done * RECORD, failure) != 0)
             break;
         for (k = 0; k < 3 * records; k++) {
-            /* corner k of this read: record k / 3, after the 12-byte normal */
+            /* corner k of this read: record k / 3, after the 12-byte normal; widened exactly */
             const unsigned char *corner = buffer + (k / 3) * RECORD + 12 + (k % 3) * 12;
-            float point[3] = {little_endian_float(corner), little_endian_float(corner + 4),
-                              little_endian_float(corner + 8)};
-            int64_t vertex = weld_point32(&w, point);
-            if (vertex < 0) {
-                fail(failure, ERR_MEMORY, NULL, "out of memory");
-                break;
-            }
-            out->faces[3 * done + k] = vertex;
+            wide[3 * k] = little_endian_float(corner);
+            wide[3 * k + 1] = little_endian_float(corner + 4);
+            wide[3 * k + 2] = little_endian_float(corner + 8);
         }
+        if (split_points(&w, wide, 3 * records, out->faces + 3 * done) != 0)
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
         if (failure->kind != ERR_NONE)
             break;
         done += records;
     }
     free(buffer);
+    free(wide);
     if (failure->kind != ERR_NONE) {
-        welder_free(&w);
+        split_free(&w);
         free(out->faces);
         out->faces = NULL;
         return -1;
     }
-    out->n = w.count;
-    out->vertices = (double *)w.vertices.data;
-    w.vertices.data = NULL;
-    welder_free(&w);
-    return 0;
+    return split_finish(&w, out, failure);
 }
 
 /* ---- ASCII ----------------------------------------------------------------------------- */
@@ -195,7 +192,7 @@ static int read_ascii(int fd, int64_t size, MeshArrays *out, Failure *failure)
     return 0;
 }
 
-int read_stl(const char *path, MeshArrays *out, Failure *failure)
+int read_stl(const char *path, int threads, MeshArrays *out, Failure *failure)
 {
     unsigned char head[1024];
     int64_t size, count = -1;
@@ -222,7 +219,7 @@ int read_stl(const char *path, MeshArrays *out, Failure *failure)
                 fail(failure, ERR_PARSE, "export the part as a closed surface", "the STL holds no triangles");
                 return -1;
             }
-            status = read_binary(fd, count, out, failure);
+            status = read_binary(fd, count, threads, out, failure);
             close(fd);
             return status;
         }

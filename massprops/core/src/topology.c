@@ -54,36 +54,68 @@ typedef struct {
     const void *faces;
     int faces32;
     int64_t m, n;
-    int64_t *offsets;           /* n + 1: edges filed under vertex v are entries[offsets[v] .. offsets[v+1]) */
+    uint32_t *offsets;          /* n + 1: edges filed under vertex v are entries[offsets[v] .. offsets[v+1]) */
     uint32_t *entries;          /* (head << 1) | 1 if the edge runs from the higher vertex to the lower */
     EdgeSummary *blocks;        /* one summary per block of VERTEX_BLOCK vertices */
     int64_t parts;              /* counting and filing: the vertex range split in this many parts */
-    int64_t collapsed;
+    int64_t *collapsed, *degenerate;   /* per part: directed edges a -> a, faces with a repeated vertex */
 } EdgeWork;
+
+/* The three corners of face f. */
+#define CORNERS(w, f, a, b, c)                                                                   \
+    do {                                                                                         \
+        if ((w)->faces32) {                                                                      \
+            const int32_t *p_ = (const int32_t *)(w)->faces + 3 * (f);                          \
+            a = p_[0], b = p_[1], c = p_[2];                                                     \
+        } else {                                                                                 \
+            const int64_t *p_ = (const int64_t *)(w)->faces + 3 * (f);                          \
+            a = p_[0], b = p_[1], c = p_[2];                                                     \
+        }                                                                                        \
+    } while (0)
+
+/* The directed edge tail -> head, filed under its lower vertex if that is in [low, high). */
+#define COUNT(w, tail, head, low, high)                                                          \
+    do {                                                                                         \
+        int64_t lower_ = (tail) < (head) ? (tail) : (head);                                      \
+        if ((tail) != (head) && lower_ >= (low) && lower_ < (high))                              \
+            (w)->offsets[lower_ + 1]++;                                                          \
+    } while (0)
+
+#define FILE_EDGE(w, tail, head, low, high)                                                      \
+    do {                                                                                         \
+        int64_t lower_ = (tail) < (head) ? (tail) : (head), higher_ = (tail) < (head) ? (head) : (tail); \
+        if ((tail) != (head) && lower_ >= (low) && lower_ < (high))                              \
+            (w)->entries[(w)->offsets[lower_]++] = (uint32_t)(higher_ << 1) | (uint32_t)((tail) > (head)); \
+    } while (0)
 
 static void count_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
-    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, k;
-    for (k = 0; k < 3 * w->m; k++) {
-        int64_t tail = face_index(w->faces, w->faces32, k);
-        int64_t head = face_index(w->faces, w->faces32, k % 3 == 2 ? k - 2 : k + 1);
-        int64_t lower = tail < head ? tail : head;
-        if (tail != head && lower >= low && lower < high)
-            w->offsets[lower + 1]++;
+    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, f, a, b, c, collapsed = 0,
+            degenerate = 0;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        COUNT(w, a, b, low, high);
+        COUNT(w, b, c, low, high);
+        COUNT(w, c, a, low, high);
+        if (part == 0) {
+            collapsed += (a == b) + (b == c) + (c == a);
+            degenerate += a == b || b == c || c == a;
+        }
     }
+    w->collapsed[part] = collapsed;
+    w->degenerate[part] = degenerate;
 }
 
 static void file_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
-    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, k;
-    for (k = 0; k < 3 * w->m; k++) {
-        int64_t tail = face_index(w->faces, w->faces32, k);
-        int64_t head = face_index(w->faces, w->faces32, k % 3 == 2 ? k - 2 : k + 1);
-        int64_t lower = tail < head ? tail : head, higher = tail < head ? head : tail;
-        if (tail != head && lower >= low && lower < high)
-            w->entries[w->offsets[lower]++] = (uint32_t)(higher << 1) | (uint32_t)(tail > head);
+    int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, f, a, b, c;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        FILE_EDGE(w, a, b, low, high);
+        FILE_EDGE(w, b, c, low, high);
+        FILE_EDGE(w, c, a, low, high);
     }
 }
 
@@ -108,45 +140,70 @@ static void sort_entries(uint32_t *list, int64_t k)
     }
 }
 
+/* Keep the smallest (a, b) seen: the first such edge in vertex order. */
 static void note_example(int64_t example[2], int64_t a, int64_t b)
 {
-    if (example[0] < 0) {
+    if (example[0] < 0 || a < example[0] || (a == example[0] && b < example[1])) {
         example[0] = a;
         example[1] = b;
     }
 }
 
-/* Group the edges of vertex v (entries sorted), adding to `s`, and calling `each` per edge. */
+static inline void count_edge(EdgeSummary *s, int64_t v, int64_t head, int64_t uses, int64_t balance)
+{
+    s->edges++;
+    if (uses == 1) {
+        s->boundary++;
+        note_example(s->first_boundary, v, head);
+    }
+    if (uses % 2)
+        s->odd++;
+    if (balance) {
+        s->unbalanced++;
+        note_example(s->first_unbalanced, v, head);
+    }
+    if (uses > 2)
+        s->nonmanifold++;
+    if (uses > s->max_uses)
+        s->max_uses = uses;
+}
+
+/* Group the edges of vertex v, adding to `s`, and calling `each` per edge (then in order of the
+ * higher vertex).  A vertex has few edges: without `each` they are grouped by scanning, with no
+ * sort; many (a fan's centre), or with `each`, are sorted first. */
 typedef void (*edge_fn)(void *ctx, int64_t low, int64_t high, int64_t uses, int64_t balance);
+
+#define GROUPED 0xFFFFFFFFu        /* never an entry: heads are below 2**31 - 1 */
 
 static void group_vertex(const EdgeWork *w, int64_t v, EdgeSummary *s, edge_fn each, void *ctx)
 {
     uint32_t *list = w->entries + w->offsets[v];
-    int64_t k = w->offsets[v + 1] - w->offsets[v], i = 0;
+    int64_t k = w->offsets[v + 1] - w->offsets[v], i = 0, j;
+    if (!each && k <= 32) {
+        for (i = 0; i < k; i++) {
+            uint32_t head = list[i] >> 1;
+            int64_t uses = 1, backward = list[i] & 1;
+            if (list[i] == GROUPED)
+                continue;
+            for (j = i + 1; j < k; j++)
+                if (list[j] >> 1 == head && list[j] != GROUPED) {
+                    uses++;
+                    backward += list[j] & 1;
+                    list[j] = GROUPED;
+                }
+            count_edge(s, v, head, uses, uses - 2 * backward);
+        }
+        return;
+    }
     sort_entries(list, k);
     while (i < k) {
         uint32_t head = list[i] >> 1;
-        int64_t uses = 0, backward = 0, balance;
+        int64_t uses = 0, backward = 0;
         for (; i < k && list[i] >> 1 == head; i++, uses++)
             backward += list[i] & 1;
-        balance = uses - 2 * backward;
-        s->edges++;
-        if (uses == 1) {
-            s->boundary++;
-            note_example(s->first_boundary, v, head);
-        }
-        if (uses % 2)
-            s->odd++;
-        if (balance) {
-            s->unbalanced++;
-            note_example(s->first_unbalanced, v, head);
-        }
-        if (uses > 2)
-            s->nonmanifold++;
-        if (uses > s->max_uses)
-            s->max_uses = uses;
+        count_edge(s, v, head, uses, uses - 2 * backward);
         if (each)
-            each(ctx, v, head, uses, balance);
+            each(ctx, v, head, uses, uses - 2 * backward);
     }
 }
 
@@ -194,57 +251,63 @@ static void append_edge(void *ctx, int64_t low, int64_t high, int64_t uses, int6
 int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
                  EdgeArrays *arrays, Failure *failure)
 {
-    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 0, 0};
-    int64_t blocks = (n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, v, k;
+    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 1, NULL, NULL};
+    int64_t blocks = (n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, v, k, collapsed = 0, degenerate = 0;
     summary_init(out);
     if (check_indices(faces, faces32, m, n, failure) != 0)
         return -1;
+    if (3 * m >= ((int64_t)1 << 32)) {
+        fail(failure, ERR_VALUE, "split the mesh into parts", "more than 1.4 billion triangles: too many for the checks");
+        return -1;
+    }
+    w.parts = threads > 1 && m > 20000 ? threads : 1;
     w.offsets = calloc((size_t)n + 1, sizeof *w.offsets);
     w.entries = malloc((size_t)(3 * m > 0 ? 3 * m : 1) * sizeof *w.entries);
     w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
-    if (!w.offsets || !w.entries || !w.blocks) {
+    w.collapsed = calloc((size_t)w.parts, sizeof(int64_t));
+    w.degenerate = calloc((size_t)w.parts, sizeof(int64_t));
+    if (!w.offsets || !w.entries || !w.blocks || !w.collapsed || !w.degenerate) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         goto done;
     }
-    w.parts = threads > 1 && m > 20000 ? threads : 1;
     parallel_blocks(threads, w.parts, count_part, &w);
+    collapsed = w.collapsed[0];
+    degenerate = w.degenerate[0];
     for (v = 0; v < n; v++)
         w.offsets[v + 1] += w.offsets[v];
     parallel_blocks(threads, w.parts, file_part, &w);
     for (v = n; v > 0; v--)                            /* filing advanced each start to the next one's */
         w.offsets[v] = w.offsets[v - 1];
     w.offsets[0] = 0;
-    for (k = 0; k < 3 * m; k++) {
-        int64_t tail = face_index(faces, faces32, k), head = face_index(faces, faces32, k % 3 == 2 ? k - 2 : k + 1);
-        out->collapsed += tail == head;
-    }
     if (arrays) {
         /* In vertex order on one thread, appending each edge as it is grouped. */
         EdgeSummary whole;
+        int64_t edges = w.offsets[n];
         summary_init(&whole);
         arrays->count = 0;
-        arrays->edges = malloc((size_t)(3 * m + 1) * 2 * sizeof(int64_t));
-        arrays->uses = malloc((size_t)(3 * m + 1) * sizeof(int32_t));
-        arrays->balance = malloc((size_t)(3 * m + 1) * sizeof(int32_t));
+        arrays->edges = malloc((size_t)(edges + 1) * 2 * sizeof(int64_t));
+        arrays->uses = malloc((size_t)(edges + 1) * sizeof(int32_t));
+        arrays->balance = malloc((size_t)(edges + 1) * sizeof(int32_t));
         if (!arrays->edges || !arrays->uses || !arrays->balance) {
             fail(failure, ERR_MEMORY, NULL, "out of memory");
             goto done;
         }
         for (v = 0; v < n; v++)
             group_vertex(&w, v, &whole, append_edge, arrays);
-        whole.collapsed = out->collapsed;
         *out = whole;
     } else {
-        int64_t collapsed = out->collapsed;
         parallel_blocks(threads, blocks, group_block, &w);
         for (k = 0; k < blocks; k++)
             merge_summary(out, &w.blocks[k]);
-        out->collapsed = collapsed;
     }
+    out->collapsed = collapsed;
+    out->degenerate_faces = degenerate;
 done:
     free(w.offsets);
     free(w.entries);
     free(w.blocks);
+    free(w.collapsed);
+    free(w.degenerate);
     return failure->kind == ERR_NONE ? 0 : -1;
 }
 

@@ -13,6 +13,7 @@ typedef struct {
     int64_t nonmanifold;       /* used more than twice */
     int64_t max_uses;
     int64_t collapsed;         /* directed edges from a vertex to itself */
+    int64_t degenerate_faces;  /* faces with a repeated vertex */
     int64_t first_boundary[2];   /* (lower, higher) vertex of the first such edge in vertex order, or -1 */
     int64_t first_unbalanced[2];
 } EdgeSummary;

@@ -56,7 +56,16 @@ static int resize(Welder *w, int bits)
 int welder_init(Welder *w, int64_t expected)
 {
     int bits = 10;
+    uint64_t k, recent = 64;
     memset(w, 0, sizeof *w);
+    while (recent < RECENT && (int64_t)recent < expected)
+        recent *= 2;
+    w->recent = malloc(recent * sizeof *w->recent);
+    if (!w->recent)
+        return -1;
+    w->recent_mask = recent - 1;
+    for (k = 0; k < recent; k++)
+        w->recent[k].vertex = -1;
     while (bits < 40 && ((int64_t)1 << bits) < 2 * expected)
         bits++;
     if (grow_reserve(&w->vertices, (size_t)(expected > 0 ? expected : 16) * 3 * sizeof(double)) != 0)
@@ -67,14 +76,16 @@ int welder_init(Welder *w, int64_t expected)
 void welder_free(Welder *w)
 {
     free(w->slots);
+    free(w->recent);
     w->slots = NULL;
+    w->recent = NULL;
     grow_free(&w->vertices);
 }
 
-int64_t weld_point64(Welder *w, const double point[3])
+/* Insert a point with its key bits and hash: its vertex number, or -1 when memory ran out. */
+static inline int64_t insert(Welder *w, const uint64_t key[3], uint64_t h)
 {
-    uint64_t key[3] = {point_bits(point[0]), point_bits(point[1]), point_bits(point[2])};
-    uint64_t h = point_hash(key), slot = h >> (64 - w->bits), tag = h << 32;
+    uint64_t slot = h >> (64 - w->bits), tag = h << 32;
     const double *stored;
     double *added;
     for (;;) {
@@ -101,10 +112,183 @@ int64_t weld_point64(Welder *w, const double point[3])
     return w->count - 1;
 }
 
+static inline int recent_hit(const Welder *w, const uint64_t key[3], uint64_t h)
+{
+#ifdef NO_RECENT
+    return 0;
+#endif
+    const uint64_t *known = w->recent[h & w->recent_mask].key;
+    return w->recent[h & w->recent_mask].vertex >= 0 && known[0] == key[0] && known[1] == key[1] && known[2] == key[2];
+}
+
+/* insert(), looking in the cache of recent points first. */
+static inline int64_t weld_key(Welder *w, const uint64_t key[3], uint64_t h)
+{
+    int64_t vertex;
+    if (recent_hit(w, key, h))
+        return w->recent[h & w->recent_mask].vertex;
+    vertex = insert(w, key, h);
+    memcpy(w->recent[h & w->recent_mask].key, key, 3 * sizeof *key);
+    w->recent[h & w->recent_mask].vertex = vertex;
+    return vertex;
+}
+
+int64_t weld_point64(Welder *w, const double point[3])
+{
+    uint64_t key[3] = {point_bits(point[0]), point_bits(point[1]), point_bits(point[2])};
+    return weld_key(w, key, point_hash(key));
+}
+
 int64_t weld_point32(Welder *w, const float point[3])
 {
     double wide[3] = {point[0], point[1], point[2]};      /* exact */
     return weld_point64(w, wide);
+}
+
+/* The table is much larger than the caches: the slots of the next points are fetched while
+ * the current ones are inserted (in order, so numbering is unchanged). */
+#define AHEAD 16
+
+int weld_points(Welder *w, const double *points, int64_t count, index_t *out)
+{
+    uint64_t keys[AHEAD][3], hashes[AHEAD];
+    int64_t k;
+    for (k = 0; k < count + AHEAD; k++) {
+        int64_t done = k - AHEAD;                       /* the point inserted in this step */
+        if (done >= 0 && (out[done] = weld_key(w, keys[done % AHEAD], hashes[done % AHEAD])) < 0)
+            return -1;
+        if (k < count) {
+            uint64_t *key = keys[k % AHEAD], h;
+            key[0] = point_bits(points[3 * k]);
+            key[1] = point_bits(points[3 * k + 1]);
+            key[2] = point_bits(points[3 * k + 2]);
+            hashes[k % AHEAD] = h = point_hash(key);
+            if (!recent_hit(w, key, h))
+                __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
+        }
+    }
+    return 0;
+}
+
+/* ---- welding on several threads ----------------------------------------------------------- */
+
+static inline int part_of(uint64_t h, int parts)
+{
+    return (int)((((h >> 20) & 0xFFFF) * (uint64_t)parts) >> 16);     /* bits apart from slot and cache */
+}
+
+int split_init(SplitWelder *s, int threads, int64_t expected_points)
+{
+    int p;
+    memset(s, 0, sizeof *s);
+    s->parts = threads < 1 ? 1 : threads > MAX_PARTS ? MAX_PARTS : threads;
+    if (expected_points < 200000)
+        s->parts = 1;                                     /* a thread costs more than it saves */
+    for (p = 0; p < s->parts; p++)
+        if (welder_init(&s->part[p], expected_points / 5 / s->parts + 16) != 0) {
+            split_free(s);
+            return -1;
+        }
+    return 0;
+}
+
+void split_free(SplitWelder *s)
+{
+    int p;
+    for (p = 0; p < MAX_PARTS; p++) {
+        if (s->part[p].slots)
+            welder_free(&s->part[p]);
+        grow_free(&s->global[p]);
+    }
+}
+
+typedef struct {
+    SplitWelder *s;
+    const double *points;
+    int64_t count;
+    index_t *out;
+    int failed[MAX_PARTS];
+} SplitWork;
+
+/* Phase one, for part p: weld its points into its own table, and write each point's code
+ * (vertex of the part * parts + p) into out.  Slots are fetched AHEAD points early. */
+static void weld_part(void *arg, int64_t p)
+{
+    SplitWork *work = arg;
+    SplitWelder *s = work->s;
+    Welder *w = &s->part[p];
+    uint64_t keys[AHEAD][3], hashes[AHEAD];
+    int64_t index[AHEAD], k, head = 0, tail = 0;
+    for (k = 0; k <= work->count; k++) {
+        if (k < work->count) {
+            uint64_t key[3] = {point_bits(work->points[3 * k]), point_bits(work->points[3 * k + 1]),
+                               point_bits(work->points[3 * k + 2])}, h = point_hash(key);
+            if (s->parts > 1 && part_of(h, s->parts) != p)
+                continue;
+            if (!recent_hit(w, key, h))
+                __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
+            memcpy(keys[head % AHEAD], key, sizeof key);
+            hashes[head % AHEAD] = h;
+            index[head % AHEAD] = k;
+            head++;
+            if (head - tail < AHEAD)
+                continue;
+        }
+        for (; tail < head && (k < work->count ? head - tail >= AHEAD : 1); tail++) {
+            int64_t vertex = weld_key(w, keys[tail % AHEAD], hashes[tail % AHEAD]);
+            if (vertex < 0) {
+                work->failed[p] = 1;
+                return;
+            }
+            work->out[index[tail % AHEAD]] = vertex * s->parts + p;
+        }
+    }
+}
+
+int split_points(SplitWelder *s, const double *points, int64_t count, index_t *out)
+{
+    SplitWork work = {s, points, count, out, {0}};
+    int p;
+    int64_t k;
+    parallel_blocks(s->parts, s->parts, weld_part, &work);
+    for (p = 0; p < s->parts; p++) {
+        Growable *g = &s->global[p];
+        size_t have = g->size / sizeof(int64_t), need = (size_t)s->part[p].count;
+        if (work.failed[p] || grow_reserve(g, (need - have) * sizeof(int64_t)) != 0)
+            return -1;
+        for (; have < need; have++)
+            ((int64_t *)g->data)[have] = -1;
+        g->size = need * sizeof(int64_t);
+    }
+    /* Phase two, in order: number each vertex when first seen. */
+    for (k = 0; k < count; k++) {
+        int64_t code = out[k], *number = (int64_t *)s->global[code % s->parts].data + code / s->parts;
+        if (*number < 0)
+            *number = s->count++;
+        out[k] = *number;
+    }
+    return 0;
+}
+
+int split_finish(SplitWelder *s, MeshArrays *out, Failure *failure)
+{
+    int p;
+    int64_t j;
+    out->n = s->count;
+    out->vertices = malloc((size_t)(s->count > 0 ? s->count : 1) * 3 * sizeof(double));
+    if (!out->vertices) {
+        split_free(s);
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    for (p = 0; p < s->parts; p++) {
+        const double *stored = (const double *)s->part[p].vertices.data;
+        const int64_t *number = (const int64_t *)s->global[p].data;
+        for (j = 0; j < s->part[p].count; j++)
+            memcpy(out->vertices + 3 * number[j], stored + 3 * j, 3 * sizeof(double));
+    }
+    split_free(s);
+    return 0;
 }
 
 /* ---- whole arrays -------------------------------------------------------------------- */
@@ -125,31 +309,41 @@ static int finish(Welder *w, MeshArrays *out, Failure *failure)
     return 0;
 }
 
-int weld_corners(const void *corners, int single, int64_t m, MeshArrays *out, Failure *failure)
+#define WIDE 196608                                      /* float32 corners widened at a time */
+
+int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure)
 {
-    Welder w;
+    SplitWelder s;
     int64_t k;
+    double *wide = single ? malloc((size_t)(3 * m < WIDE ? 3 * m + 1 : WIDE) * 3 * sizeof(double)) : NULL;
     out->m = m;
     out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
-    if (!out->faces || welder_init(&w, m / 2 + 16) != 0) {
+    if (!out->faces || (single && !wide) || split_init(&s, threads, 3 * m) != 0) {
         free(out->faces);
+        free(wide);
         out->faces = NULL;
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
-    for (k = 0; k < 3 * m; k++) {
-        int64_t vertex = single ? weld_point32(&w, (const float *)corners + 3 * k)
-                                : weld_point64(&w, (const double *)corners + 3 * k);
-        if (vertex < 0) {
-            welder_free(&w);
-            free(out->faces);
-            out->faces = NULL;
-            fail(failure, ERR_MEMORY, NULL, "out of memory");
-            return -1;
+    if (single) {
+        for (k = 0; k < 3 * m && failure->kind == ERR_NONE; k += WIDE) {
+            int64_t n = 3 * m - k < WIDE ? 3 * m - k : WIDE, j;
+            for (j = 0; j < 3 * n; j++)
+                wide[j] = ((const float *)corners)[3 * k + j];      /* exact */
+            if (split_points(&s, wide, n, out->faces + k) != 0)
+                fail(failure, ERR_MEMORY, NULL, "out of memory");
         }
-        out->faces[k] = vertex;
+    } else if (split_points(&s, corners, 3 * m, out->faces) != 0) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
     }
-    return finish(&w, out, failure);
+    free(wide);
+    if (failure->kind != ERR_NONE) {
+        split_free(&s);
+        free(out->faces);
+        out->faces = NULL;
+        return -1;
+    }
+    return split_finish(&s, out, failure);
 }
 
 int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
