@@ -11,9 +11,13 @@ Measured, each the best of a few runs (the machine is shared):
 - end to end: ``massprops props --format json F`` against
   ``python -c "import trimesh; trimesh.load(F).mass_properties"``, each a fresh
   process; wall time and peak RSS (``wait4``'s ``ru_maxrss``);
+- peers (:mod:`peers`): MuJoCo (MjSpec compile, exact mesh inertia),
+  pymeshlab, numpy-stl and meshlib (volume only), each a fresh process on
+  the same file, "not installed" where their package is missing;
 - kernel: ``massprops.core.integrate`` against
   ``trimesh.triangles.mass_properties`` on the same triangles, ns/triangle,
-  next to the memory-read floor (one pass summing the float64 triangles);
+  next to the memory-read floor (one pass summing the float64 triangles)
+  and meshlib's volume-only time on the same mesh;
 - threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
 - startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"``.
 
@@ -29,11 +33,12 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))      # peers.py beside this file
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "_data", "props")
 OFFSET = (100.0, -50.0, 25.0)
 MIB = 1024.0 * 1024.0
-TRIMESH_CMD = "import sys, trimesh; trimesh.load(sys.argv[1]).mass_properties"
 
 
 def _path(name):
@@ -156,27 +161,42 @@ def massprops_cmd(path, *options):
     return ([script] if script else [sys.executable, "-m", "massprops"]) + ["props", *options, path]
 
 
-def trimesh_cmd(path):
-    return [sys.executable, "-c", TRIMESH_CMD, path]
-
-
 def _seconds(x):
     return f"{x:.2f}" if x >= 0.1 else f"{x:.3f}"
 
 
 def end_to_end(quick):
+    """massprops against trimesh and the peers on the icosphere, each a fresh process (wall, peak RSS)."""
+    import peers
     path = icosphere_stl()
     repeat = 2 if quick else 3
     command = massprops_cmd(path, "--format", "json")
-    found = interleaved({"ours": (command, None, 2), "one": (command, {"MASSPROPS_THREADS": "1"}, 1),
-                         "theirs": (trimesh_cmd(path), None, 1)}, repeat)
-    ours, one, theirs = found["ours"], found["one"], found["theirs"]
+    commands = {"massprops": (command, None, 2), "massprops, 1 thread": (command, {"MASSPROPS_THREADS": "1"}, 1)}
+    skipped = {}
+    for name in peers.PEERS:
+        if not peers.installed(name):
+            skipped[name] = "not installed"
+        elif name == "numpy-stl" and quick:
+            skipped[name] = "skipped with --quick (~80 s a run)"
+        else:
+            commands[name] = (peers.command(name, path), None, 1)
+    runs = {name: 1 if name == "numpy-stl" else repeat for name in commands}
+    found = {}
+    for turn in range(max(runs.values())):
+        for name, (argv, env, per_turn) in commands.items():
+            if turn < runs[name]:
+                found.setdefault(name, []).extend(measure(argv, env) for _ in range(per_turn))
+    found = {name: min(values) for name, values in found.items()}
+    ours = found["massprops"][0]
     size = os.path.getsize(path) / MIB
-    rows = ["| mesh | triangles | file MiB | massprops s | massprops peak MiB | 1 thread s | trimesh s "
-            "| trimesh peak MiB | speed-up | memory ratio |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-            f"| icosphere(8) at {OFFSET} | 1,310,720 | {size:.0f} | {_seconds(ours[0])} | {ours[1]:.0f} "
-            f"| {_seconds(one[0])} | {_seconds(theirs[0])} | {theirs[1]:.0f} | {theirs[0] / ours[0]:.1f}× "
-            f"| {ours[1] / theirs[1]:.0%} |"]
+    rows = [f"1,310,720 triangles (icosphere(8) at {OFFSET}), binary STL of {size:.0f} MiB; best of "
+            f"{repeat} fresh processes each (numpy-stl: 1).", "",
+            "| tool | computes | wall s | peak MiB | massprops is faster by |", "|---|---|---:|---:|---:|"]
+    for name, (wall, peak) in found.items():
+        what = "volume, COM, inertia, principal axes, bounds" if name.startswith("massprops") else peers.PEERS[name][2]
+        rows.append(f"| {name} | {what} | {_seconds(wall)} | {peak:.0f} | "
+                    f"{'' if name.startswith('massprops') else f'{wall / ours:.1f}×'} |")
+    rows += [f"| {name} | {peers.PEERS[name][2]} | {why} | | |" for name, why in skipped.items()]
     return "\n".join(rows)
 
 
@@ -190,11 +210,13 @@ def _time(function, repeat):
 
 
 def kernel(quick):
-    """ns/triangle of the integration kernels on the icosphere, with the memory-read floor."""
+    """ns/triangle of the integration kernel on the icosphere, beside trimesh, meshlib and the memory floor."""
+    import peers
     import trimesh
     from massprops.core import integrate
     from massprops.io import read
-    mesh = read(icosphere_stl())
+    path = icosphere_stl()
+    mesh = read(path)
     triangles = mesh.vertices[mesh.faces]
     m = mesh.faces.shape[0]
     repeat = 3 if quick else 7
@@ -204,16 +226,22 @@ def kernel(quick):
         os.environ["MASSPROPS_THREADS"] = threads
         ours[threads] = _time(lambda: integrate(mesh.vertices, mesh.faces), repeat)
     os.environ.pop("MASSPROPS_THREADS")
-    theirs = _time(lambda: trimesh.triangles.mass_properties(triangles), repeat)
+    theirs = _time(lambda: trimesh.triangles.mass_properties(triangles), max(2, repeat // 2))
+    meshlib = peers.meshlib_volume_seconds(path, repeat)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     ns = {k: v / m * 1e9 for k, v in ours.items()}
-    rows = ["| kernel (1,310,720 triangles) | ns/triangle | vs trimesh | × floor |", "|---|---:|---:|---:|",
-            f"| memory-read floor (one pass summing the float64 triangles) | {floor / m * 1e9:.1f} | | 1 |",
-            f"| massprops `integrate`, 1 thread | {ns['1']:.0f} | {theirs / ours['1']:.1f}× | {ours['1'] / floor:.0f} |",
-            f"| massprops `integrate`, {cores} threads | {ns['']:.0f} | {theirs / ours['']:.1f}× "
-            f"| {ours[''] / floor:.0f} |",
-            f"| trimesh `triangles.mass_properties` | {theirs / m * 1e9:.0f} | 1.0× | {theirs / floor:.0f} |"]
-    return "\n".join(rows) + f"\n\nThreads speed the kernel up {ours['1'] / ours['']:.2f}× on {cores} cores."
+    rows = ["| kernel (1,310,720 triangles, in process) | computes | ns/triangle | trimesh is slower by | × floor |",
+            "|---|---|---:|---:|---:|",
+            f"| memory-read floor (one pass summing the float64 triangles) | | {floor / m * 1e9:.1f} | | 1 |",
+            f"| massprops `core.integrate`, 1 thread | volume, first and second moments, with bounds | {ns['1']:.1f} "
+            f"| {theirs / ours['1']:.1f}× | {ours['1'] / floor:.1f} |",
+            f"| massprops `core.integrate`, {cores} threads | the same | {ns['']:.1f} | {theirs / ours['']:.1f}× "
+            f"| {ours[''] / floor:.1f} |",
+            f"| trimesh `triangles.mass_properties` | volume, first and second moments | {theirs / m * 1e9:.0f} "
+            f"| 1.0× | {theirs / floor:.0f} |",
+            f"| meshlib `Mesh.volume()` | volume only | "
+            + (f"{meshlib / m * 1e9:.1f} | | {meshlib / floor:.1f} |" if meshlib else "not installed | | |")]
+    return "\n".join(rows)
 
 
 STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import massprops.cli as c; "
@@ -271,7 +299,7 @@ def scaling(quick):
     per_triangle = []
     for target in sizes:
         path, m = torus_stl(target)
-        repeat = 1 if m > 2_000_000 else 3
+        repeat = 1 if m > 2_000_000 else 3       # 10M: the peak-memory target (≤ 1.5× the file)
         wall, peak = best(massprops_cmd(path, "--format", "json"), repeat)
         size = os.path.getsize(path) / MIB
         ns, calls = in_process_ns(path, repeat + 1)

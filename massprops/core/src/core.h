@@ -49,7 +49,7 @@ void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx);
 
 /* A table of distinct points by exact coordinates: float32 points are kept as their
  * exactly widened float64 values; -0.0 is stored as +0.0 (they are equal), NaNs by bits. */
-#define RECENT 4096
+#define RECENT 16384
 
 typedef struct {
     uint64_t *slots;          /* (tag << 32) | (vertex + 1); 0 = empty */
@@ -68,8 +68,6 @@ void welder_free(Welder *w);
 /* The vertex number of a point (a new one if not seen before), or -1 when memory ran out. */
 int64_t weld_point64(Welder *w, const double point[3]);
 int64_t weld_point32(Welder *w, const float point[3]);
-/* Weld `count` points (count x 3 doubles) into out[0 .. count); 0, or -1 when memory ran out. */
-int weld_points(Welder *w, const double *points, int64_t count, index_t *out);
 
 /* Welding on several threads: points are split by hash into parts, each welded by its own
  * thread into its own table; a sequential pass then numbers the vertices in order of first

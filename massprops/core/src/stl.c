@@ -75,12 +75,12 @@ static int read_binary(int fd, int64_t count, int threads, MeshArrays *out, Fail
         int64_t records = count - done < per_read ? count - done : per_read, k;
         if (read_exactly(fd, (char *)buffer, (size_t)(records * RECORD), HEADER + done * RECORD, failure) != 0)
             break;
-        for (k = 0; k < 3 * records; k++) {
-            /* corner k of this read: record k / 3, after the 12-byte normal; widened exactly */
-            const unsigned char *corner = buffer + (k / 3) * RECORD + 12 + (k % 3) * 12;
-            wide[3 * k] = little_endian_float(corner);
-            wide[3 * k + 1] = little_endian_float(corner + 4);
-            wide[3 * k + 2] = little_endian_float(corner + 8);
+        for (k = 0; k < records; k++) {
+            /* the nine corner coordinates of record k, after its 12-byte normal; widened exactly */
+            const unsigned char *corners = buffer + k * RECORD + 12;
+            int c;
+            for (c = 0; c < 9; c++)
+                wide[9 * k + c] = little_endian_float(corners + 4 * c);
         }
         if (split_points(&w, wide, 3 * records, out->faces + 3 * done) != 0)
             fail(failure, ERR_MEMORY, NULL, "out of memory");

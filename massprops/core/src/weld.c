@@ -27,9 +27,12 @@ static inline uint64_t point_bits(double x)
     return (bits << 1) == 0 ? 0 : bits;          /* -0.0 and +0.0: one key */
 }
 
+/* Odd multipliers carry every bit of a coordinate into the product's top bits (the slot); the
+ * fold brings the top into the low bits (the tag, and the recent cache's index). */
 static inline uint64_t point_hash(const uint64_t key[3])
 {
-    return mix64(key[0] + mix64(key[1] + mix64(key[2] ^ 0x9E3779B97F4A7C15ULL)));
+    uint64_t h = key[0] * 0x9E3779B97F4A7C15ULL ^ key[1] * 0xBF58476D1CE4E5B9ULL ^ key[2] * 0x94D049BB133111EBULL;
+    return h ^ (h >> 29) ^ (h >> 47);
 }
 
 static int resize(Welder *w, int bits)
@@ -112,21 +115,21 @@ static inline int64_t insert(Welder *w, const uint64_t key[3], uint64_t h)
     return w->count - 1;
 }
 
-static inline int recent_hit(const Welder *w, const uint64_t key[3], uint64_t h)
+/* What the cache of recent points holds for this point: its vertex (>= 0), a pending marker
+ * (<= -2, see weld_part), or -1 when it holds another point or none. */
+static inline int64_t recent_lookup(const Welder *w, const uint64_t key[3], uint64_t h)
 {
-#ifdef NO_RECENT
-    return 0;
-#endif
     const uint64_t *known = w->recent[h & w->recent_mask].key;
-    return w->recent[h & w->recent_mask].vertex >= 0 && known[0] == key[0] && known[1] == key[1] && known[2] == key[2];
+    int64_t vertex = w->recent[h & w->recent_mask].vertex;
+    return vertex != -1 && known[0] == key[0] && known[1] == key[1] && known[2] == key[2] ? vertex : -1;
 }
 
 /* insert(), looking in the cache of recent points first. */
 static inline int64_t weld_key(Welder *w, const uint64_t key[3], uint64_t h)
 {
-    int64_t vertex;
-    if (recent_hit(w, key, h))
-        return w->recent[h & w->recent_mask].vertex;
+    int64_t vertex = recent_lookup(w, key, h);
+    if (vertex >= 0)
+        return vertex;
     vertex = insert(w, key, h);
     memcpy(w->recent[h & w->recent_mask].key, key, 3 * sizeof *key);
     w->recent[h & w->recent_mask].vertex = vertex;
@@ -145,30 +148,9 @@ int64_t weld_point32(Welder *w, const float point[3])
     return weld_point64(w, wide);
 }
 
-/* The table is much larger than the caches: the slots of the next points are fetched while
- * the current ones are inserted (in order, so numbering is unchanged). */
+/* The table is much larger than the caches: the slots of the next points are fetched while the
+ * current ones are inserted (in order, so numbering is unchanged). */
 #define AHEAD 16
-
-int weld_points(Welder *w, const double *points, int64_t count, index_t *out)
-{
-    uint64_t keys[AHEAD][3], hashes[AHEAD];
-    int64_t k;
-    for (k = 0; k < count + AHEAD; k++) {
-        int64_t done = k - AHEAD;                       /* the point inserted in this step */
-        if (done >= 0 && (out[done] = weld_key(w, keys[done % AHEAD], hashes[done % AHEAD])) < 0)
-            return -1;
-        if (k < count) {
-            uint64_t *key = keys[k % AHEAD], h;
-            key[0] = point_bits(points[3 * k]);
-            key[1] = point_bits(points[3 * k + 1]);
-            key[2] = point_bits(points[3 * k + 2]);
-            hashes[k % AHEAD] = h = point_hash(key);
-            if (!recent_hit(w, key, h))
-                __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
-        }
-    }
-    return 0;
-}
 
 /* ---- welding on several threads ----------------------------------------------------------- */
 
@@ -212,35 +194,58 @@ typedef struct {
 
 /* Phase one, for part p: weld its points into its own table, and write each point's code
  * (vertex of the part * parts + p) into out.  Slots are fetched AHEAD points early. */
+/* In the cache of recent points, a point still waiting in the pipeline below is marked with
+ * PENDING(k), k its index in this call: later copies of it take its number once it has one. */
+#define PENDING(k) (-2 - (k))
+
 static void weld_part(void *arg, int64_t p)
 {
     SplitWork *work = arg;
     SplitWelder *s = work->s;
     Welder *w = &s->part[p];
     uint64_t keys[AHEAD][3], hashes[AHEAD];
-    int64_t index[AHEAD], k, head = 0, tail = 0;
+    int64_t index[AHEAD], copy_of[AHEAD], k, head = 0, tail = 0;
     for (k = 0; k <= work->count; k++) {
         if (k < work->count) {
             uint64_t key[3] = {point_bits(work->points[3 * k]), point_bits(work->points[3 * k + 1]),
                                point_bits(work->points[3 * k + 2])}, h = point_hash(key);
+            int64_t known;
             if (s->parts > 1 && part_of(h, s->parts) != p)
                 continue;
-            if (!recent_hit(w, key, h))
+            known = recent_lookup(w, key, h);
+            if (known >= 0) {
+                /* a vertex welded before: its number is final, whatever is still pending */
+                work->out[k] = known * s->parts + p;
+                continue;
+            }
+            if (known == -1) {
                 __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
+                memcpy(w->recent[h & w->recent_mask].key, key, sizeof key);
+                w->recent[h & w->recent_mask].vertex = PENDING(k);
+            }
             memcpy(keys[head % AHEAD], key, sizeof key);
             hashes[head % AHEAD] = h;
             index[head % AHEAD] = k;
+            copy_of[head % AHEAD] = known == -1 ? -1 : -2 - known;
             head++;
             if (head - tail < AHEAD)
                 continue;
         }
         for (; tail < head && (k < work->count ? head - tail >= AHEAD : 1); tail++) {
-            int64_t vertex = weld_key(w, keys[tail % AHEAD], hashes[tail % AHEAD]);
+            int64_t slot = tail % AHEAD, vertex, *cached;
+            if (copy_of[slot] >= 0) {              /* the same point as one earlier in the pipeline */
+                work->out[index[slot]] = work->out[copy_of[slot]];
+                continue;
+            }
+            vertex = insert(w, keys[slot], hashes[slot]);
             if (vertex < 0) {
                 work->failed[p] = 1;
                 return;
             }
-            work->out[index[tail % AHEAD]] = vertex * s->parts + p;
+            work->out[index[slot]] = vertex * s->parts + p;
+            cached = &w->recent[hashes[slot] & w->recent_mask].vertex;
+            if (*cached == PENDING(index[slot]))
+                *cached = vertex;
         }
     }
 }
