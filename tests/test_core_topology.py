@@ -255,7 +255,7 @@ def test_welding_on_several_threads_numbers_vertices_as_one_thread_does(monkeypa
     from massprops.io.stl import write_binary
     rng = np.random.default_rng(11)
     pool = rng.normal(size=(30_000, 3)).astype(dtype)
-    corners = pool[rng.integers(0, pool.shape[0], size=(80_000, 3))]
+    corners = pool[rng.integers(0, pool.shape[0], size=(110_000, 3))]       # 330,000 points: split among threads
     expected = _weld_oracle(corners)
     path = tmp_path / "soup.stl"
     write_binary(path, corners)

@@ -69,26 +69,15 @@ void welder_free(Welder *w);
 int64_t weld_point64(Welder *w, const double point[3]);
 int64_t weld_point32(Welder *w, const float point[3]);
 
-/* Welding on several threads: points are split by hash into parts, each welded by its own
- * thread into its own table; a sequential pass then numbers the vertices in order of first
- * appearance, so the result is the same for any number of parts. */
-#define MAX_PARTS 8
-
-typedef struct {
-    int parts;
-    Welder part[MAX_PARTS];
-    Growable global[MAX_PARTS];   /* int64 per vertex of a part: its number, -1 before it is seen */
-    int64_t count;
-} SplitWelder;
-
-int split_init(SplitWelder *s, int threads, int64_t expected_points);
-void split_free(SplitWelder *s);
-/* Weld `count` points (count x 3 doubles) into out[0 .. count); 0, or -1 when memory ran out. */
-int split_points(SplitWelder *s, const double *points, int64_t count, index_t *out);
-
 typedef struct MeshArrays MeshArrays;
-/* The welded vertices (n x 3) into out->vertices, out->n; frees the welder. */
-int split_finish(SplitWelder *s, MeshArrays *out, Failure *failure);
+
+/* Welding on several threads (weld.c): a PointSource fills `points` (count x 3 doubles) with
+ * points [first, first + count) of the input; 0, or -1 with a failure.  weld_source welds
+ * `count` points (whole triangles) into out->faces (allocated by the caller, count entries)
+ * and sets out->vertices, out->n: the same numbering whatever the thread count. */
+#define MAX_RANGES 8
+typedef int (*PointSource)(void *context, int64_t first, int64_t count, double *points, Failure *failure);
+int weld_source(PointSource source, void *context, int64_t count, int threads, MeshArrays *out, Failure *failure);
 /* Weld m triangles given by their corners (3m points, float32 if `single`, else float64). */
 int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure);
 /* Weld the vertices that faces use (int32 or int64 indices, checked), numbered by first use. */

@@ -17,7 +17,6 @@
 
 #define HEADER 84
 #define RECORD 50
-#define RECORDS_PER_READ 65536
 
 static uint32_t little_endian32(const unsigned char *p)
 {
@@ -53,50 +52,53 @@ static int looks_like_text(const unsigned char *bytes, size_t length)
     return 1;
 }
 
+typedef struct {
+    int fd;
+    int64_t records;
+} BinaryFile;
+
+/* Corners [first, first + count) of a binary STL (whole records), read with pread (so threads can
+ * read their own parts) and widened exactly. */
+static int binary_source(void *context, int64_t first, int64_t count, double *points, Failure *failure)
+{
+    const BinaryFile *file = context;
+    int64_t records = count / 3, k;
+    unsigned char *buffer = malloc((size_t)(records > 0 ? records : 1) * RECORD);
+    if (!buffer) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    if (read_exactly(file->fd, (char *)buffer, (size_t)(records * RECORD), HEADER + first / 3 * RECORD, failure) != 0) {
+        free(buffer);
+        return -1;
+    }
+    for (k = 0; k < records; k++) {
+        /* the nine corner coordinates of record k, after its 12-byte normal */
+        const unsigned char *corners = buffer + k * RECORD + 12;
+        int c;
+        for (c = 0; c < 9; c++)
+            points[9 * k + c] = little_endian_float(corners + 4 * c);
+    }
+    free(buffer);
+    return 0;
+}
+
 static int read_binary(int fd, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
-    SplitWelder w;
-    int64_t per_read = count < RECORDS_PER_READ ? count : RECORDS_PER_READ;
-    unsigned char *buffer = malloc((size_t)per_read * RECORD);
-    double *wide = malloc((size_t)per_read * 9 * sizeof(double));
-    int64_t done = 0;
+    BinaryFile file = {fd, count};
     out->m = count;
     out->binary = 1;
     out->faces = malloc((size_t)count * 3 * sizeof(index_t));
-    if (!buffer || !wide || !out->faces || split_init(&w, threads, 3 * count) != 0) {
-        free(buffer);
-        free(wide);
-        free(out->faces);
-        out->faces = NULL;
+    if (!out->faces) {
         fail(failure, ERR_MEMORY, NULL, "out of memory for %lld triangles", (long long)count);
         return -1;
     }
-    while (done < count) {
-        int64_t records = count - done < per_read ? count - done : per_read, k;
-        if (read_exactly(fd, (char *)buffer, (size_t)(records * RECORD), HEADER + done * RECORD, failure) != 0)
-            break;
-        for (k = 0; k < records; k++) {
-            /* the nine corner coordinates of record k, after its 12-byte normal; widened exactly */
-            const unsigned char *corners = buffer + k * RECORD + 12;
-            int c;
-            for (c = 0; c < 9; c++)
-                wide[9 * k + c] = little_endian_float(corners + 4 * c);
-        }
-        if (split_points(&w, wide, 3 * records, out->faces + 3 * done) != 0)
-            fail(failure, ERR_MEMORY, NULL, "out of memory");
-        if (failure->kind != ERR_NONE)
-            break;
-        done += records;
-    }
-    free(buffer);
-    free(wide);
-    if (failure->kind != ERR_NONE) {
-        split_free(&w);
+    if (weld_source(binary_source, &file, 3 * count, threads, out, failure) != 0) {
         free(out->faces);
         out->faces = NULL;
         return -1;
     }
-    return split_finish(&w, out, failure);
+    return 0;
 }
 
 /* ---- ASCII ----------------------------------------------------------------------------- */

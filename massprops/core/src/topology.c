@@ -152,20 +152,17 @@ static void note_example(int64_t example[2], int64_t a, int64_t b)
 static inline void count_edge(EdgeSummary *s, int64_t v, int64_t head, int64_t uses, int64_t balance)
 {
     s->edges++;
-    if (uses == 1) {
-        s->boundary++;
-        note_example(s->first_boundary, v, head);
+    s->boundary += uses == 1;
+    s->odd += uses & 1;
+    s->unbalanced += balance != 0;
+    s->nonmanifold += uses > 2;
+    s->max_uses = uses > s->max_uses ? uses : s->max_uses;
+    if (__builtin_expect(uses == 1 || balance != 0, 0)) {
+        if (uses == 1)
+            note_example(s->first_boundary, v, head);
+        if (balance)
+            note_example(s->first_unbalanced, v, head);
     }
-    if (uses % 2)
-        s->odd++;
-    if (balance) {
-        s->unbalanced++;
-        note_example(s->first_unbalanced, v, head);
-    }
-    if (uses > 2)
-        s->nonmanifold++;
-    if (uses > s->max_uses)
-        s->max_uses = uses;
 }
 
 /* Group the edges of vertex v, adding to `s`, and calling `each` per edge (then in order of the

@@ -152,147 +152,168 @@ int64_t weld_point32(Welder *w, const float point[3])
  * current ones are inserted (in order, so numbering is unchanged). */
 #define AHEAD 16
 
-/* ---- welding on several threads ----------------------------------------------------------- */
+/* ---- welding a block of points, with the slots fetched ahead ------------------------------- */
 
-static inline int part_of(uint64_t h, int parts)
-{
-    return (int)((((h >> 20) & 0xFFFF) * (uint64_t)parts) >> 16);     /* bits apart from slot and cache */
-}
+/* In the cache of recent points, a point still waiting in the pipeline below is marked with
+ * PENDING(k), k its index in the block.  A later copy of it is written to out as LINK(k), and
+ * replaced by out[k]'s number once the block is done. */
+#define PENDING(k) (-2 - (k))
+#define LINK(k) (-1 - (k))
 
-int split_init(SplitWelder *s, int threads, int64_t expected_points)
+/* Weld the point waiting at the pipeline's tail; 0, or -1 when memory ran out. */
+static inline int weld_tail(Welder *w, index_t *out, uint64_t key[3], uint64_t h, int64_t k)
 {
-    int p;
-    memset(s, 0, sizeof *s);
-    s->parts = threads < 1 ? 1 : threads > MAX_PARTS ? MAX_PARTS : threads;
-    if (expected_points < 200000)
-        s->parts = 1;                                     /* a thread costs more than it saves */
-    for (p = 0; p < s->parts; p++)
-        if (welder_init(&s->part[p], expected_points / 5 / s->parts + 16) != 0) {
-            split_free(s);
-            return -1;
-        }
+    int64_t vertex = insert(w, key, h), *cached;
+    if (vertex < 0)
+        return -1;
+    out[k] = vertex;
+    cached = &w->recent[h & w->recent_mask].vertex;
+    if (*cached == PENDING(k))
+        *cached = vertex;
     return 0;
 }
 
-void split_free(SplitWelder *s)
+/* Weld `count` points (count x 3 doubles) into out: each point's vertex, numbered in order of
+ * first appearance in `w`.  0, or -1 when memory ran out. */
+static int weld_block(Welder *w, const double *points, int64_t count, index_t *out)
 {
-    int p;
-    for (p = 0; p < MAX_PARTS; p++) {
-        if (s->part[p].slots)
-            welder_free(&s->part[p]);
-        grow_free(&s->global[p]);
+    uint64_t keys[AHEAD][3], hashes[AHEAD];
+    int64_t index[AHEAD], k, head = 0, tail = 0;
+    for (k = 0; k < count; k++) {
+        uint64_t key[3] = {point_bits(points[3 * k]), point_bits(points[3 * k + 1]), point_bits(points[3 * k + 2])};
+        uint64_t h = point_hash(key);
+        int64_t known = recent_lookup(w, key, h);
+        if (known >= 0) {                        /* welded before: its number is final */
+            out[k] = known;
+            continue;
+        }
+        if (known != -1) {                       /* waiting in the pipeline: a link to it */
+            out[k] = LINK(-2 - known);
+            continue;
+        }
+        __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
+        memcpy(w->recent[h & w->recent_mask].key, key, sizeof key);
+        w->recent[h & w->recent_mask].vertex = PENDING(k);
+        if (head - tail == AHEAD) {
+            if (weld_tail(w, out, keys[tail % AHEAD], hashes[tail % AHEAD], index[tail % AHEAD]) != 0)
+                return -1;
+            tail++;
+        }
+        memcpy(keys[head % AHEAD], key, sizeof key);
+        hashes[head % AHEAD] = h;
+        index[head % AHEAD] = k;
+        head++;
     }
+    for (; tail < head; tail++)
+        if (weld_tail(w, out, keys[tail % AHEAD], hashes[tail % AHEAD], index[tail % AHEAD]) != 0)
+            return -1;
+    for (k = 0; k < count; k++)                  /* links point back, to numbers already final */
+        if (out[k] < 0)
+            out[k] = out[-1 - out[k]];
+    return 0;
 }
+
+/* ---- welding on several threads -------------------------------------------------------------- */
+
+/* Each thread welds a contiguous range of the points into its own table, numbering its vertices
+ * in order of first appearance within the range; then, range after range, each range's vertices
+ * are looked up in (or added to) the first range's table.  A vertex first seen in range t comes
+ * after every vertex of the earlier ranges, so the numbers are those of one thread welding all
+ * points in order, whatever the number of threads. */
+#define WELD_BLOCK 196608               /* points widened and welded at a time (about 4.7 MB) */
 
 typedef struct {
-    SplitWelder *s;
-    const double *points;
-    int64_t count;
+    PointSource source;
+    void *context;
+    int64_t count;                      /* points */
+    int ranges;
+    Welder welders[MAX_RANGES];
     index_t *out;
-    int failed[MAX_PARTS];
-} SplitWork;
+    int failed[MAX_RANGES];
+    Failure failures[MAX_RANGES];
+} RangeWork;
 
-/* Phase one, for part p: weld its points into its own table, and write each point's code
- * (vertex of the part * parts + p) into out.  Slots are fetched AHEAD points early. */
-/* In the cache of recent points, a point still waiting in the pipeline below is marked with
- * PENDING(k), k its index in this call: later copies of it take its number once it has one. */
-#define PENDING(k) (-2 - (k))
-
-static void weld_part(void *arg, int64_t p)
+static int64_t range_start(const RangeWork *work, int64_t t)
 {
-    SplitWork *work = arg;
-    SplitWelder *s = work->s;
-    Welder *w = &s->part[p];
-    uint64_t keys[AHEAD][3], hashes[AHEAD];
-    int64_t index[AHEAD], copy_of[AHEAD], k, head = 0, tail = 0;
-    for (k = 0; k <= work->count; k++) {
-        if (k < work->count) {
-            uint64_t key[3] = {point_bits(work->points[3 * k]), point_bits(work->points[3 * k + 1]),
-                               point_bits(work->points[3 * k + 2])}, h = point_hash(key);
-            int64_t known;
-            if (s->parts > 1 && part_of(h, s->parts) != p)
-                continue;
-            known = recent_lookup(w, key, h);
-            if (known >= 0) {
-                /* a vertex welded before: its number is final, whatever is still pending */
-                work->out[k] = known * s->parts + p;
-                continue;
-            }
-            if (known == -1) {
-                __builtin_prefetch(&w->slots[h >> (64 - w->bits)]);
-                memcpy(w->recent[h & w->recent_mask].key, key, sizeof key);
-                w->recent[h & w->recent_mask].vertex = PENDING(k);
-            }
-            memcpy(keys[head % AHEAD], key, sizeof key);
-            hashes[head % AHEAD] = h;
-            index[head % AHEAD] = k;
-            copy_of[head % AHEAD] = known == -1 ? -1 : -2 - known;
-            head++;
-            if (head - tail < AHEAD)
-                continue;
-        }
-        for (; tail < head && (k < work->count ? head - tail >= AHEAD : 1); tail++) {
-            int64_t slot = tail % AHEAD, vertex, *cached;
-            if (copy_of[slot] >= 0) {              /* the same point as one earlier in the pipeline */
-                work->out[index[slot]] = work->out[copy_of[slot]];
-                continue;
-            }
-            vertex = insert(w, keys[slot], hashes[slot]);
-            if (vertex < 0) {
-                work->failed[p] = 1;
-                return;
-            }
-            work->out[index[slot]] = vertex * s->parts + p;
-            cached = &w->recent[hashes[slot] & w->recent_mask].vertex;
-            if (*cached == PENDING(index[slot]))
-                *cached = vertex;
-        }
-    }
+    return (work->count / 3 * t / work->ranges) * 3;          /* whole triangles */
 }
 
-int split_points(SplitWelder *s, const double *points, int64_t count, index_t *out)
+static void weld_range(void *arg, int64_t t)
 {
-    SplitWork work = {s, points, count, out, {0}};
-    int p;
-    int64_t k;
-    parallel_blocks(s->parts, s->parts, weld_part, &work);
-    for (p = 0; p < s->parts; p++) {
-        Growable *g = &s->global[p];
-        size_t have = g->size / sizeof(int64_t), need = (size_t)s->part[p].count;
-        if (work.failed[p] || grow_reserve(g, (need - have) * sizeof(int64_t)) != 0)
-            return -1;
-        for (; have < need; have++)
-            ((int64_t *)g->data)[have] = -1;
-        g->size = need * sizeof(int64_t);
+    RangeWork *work = arg;
+    int64_t first = range_start(work, t), last = range_start(work, t + 1), k;
+    double *block = malloc((size_t)(last - first < WELD_BLOCK ? last - first + 1 : WELD_BLOCK) * 3 * sizeof(double));
+    /* the first range's table ends up holding every vertex: sized for all of them at once */
+    if (!block || welder_init(&work->welders[t], (t == 0 ? work->count : last - first) / 5 + 16) != 0) {
+        free(block);
+        work->failed[t] = 1;
+        fail(&work->failures[t], ERR_MEMORY, NULL, "out of memory");
+        return;
     }
-    /* Phase two, in order: number each vertex when first seen. */
-    for (k = 0; k < count; k++) {
-        int64_t code = out[k], *number = (int64_t *)s->global[code % s->parts].data + code / s->parts;
-        if (*number < 0)
-            *number = s->count++;
-        out[k] = *number;
+    for (k = first; k < last; k += WELD_BLOCK) {
+        int64_t n = last - k < WELD_BLOCK ? last - k : WELD_BLOCK;
+        if (work->source(work->context, k, n, block, &work->failures[t]) != 0) {
+            work->failed[t] = 1;
+            break;
+        }
+        if (weld_block(&work->welders[t], block, n, work->out + k) != 0) {
+            work->failed[t] = 1;
+            fail(&work->failures[t], ERR_MEMORY, NULL, "out of memory");
+            break;
+        }
     }
-    return 0;
+    free(block);
 }
 
-int split_finish(SplitWelder *s, MeshArrays *out, Failure *failure)
+int weld_source(PointSource source, void *context, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
-    int p;
-    int64_t j;
-    out->n = s->count;
-    out->vertices = malloc((size_t)(s->count > 0 ? s->count : 1) * 3 * sizeof(double));
-    if (!out->vertices) {
-        split_free(s);
+    RangeWork work;
+    int t;
+    int64_t k, j;
+    memset(&work, 0, sizeof work);
+    work.source = source;
+    work.context = context;
+    work.count = count;
+    work.ranges = count < 300000 || threads < 1 ? 1 : threads > MAX_RANGES ? MAX_RANGES : threads;
+    work.out = out->faces;
+    parallel_blocks(work.ranges, work.ranges, weld_range, &work);
+    for (t = 0; t < work.ranges; t++)
+        if (work.failed[t] && failure->kind == ERR_NONE)
+            *failure = work.failures[t];
+    for (t = 1; t < work.ranges && failure->kind == ERR_NONE; t++) {
+        Welder *w = &work.welders[t];
+        int64_t *number = malloc((size_t)(w->count > 0 ? w->count : 1) * sizeof *number);
+        const double *stored = (const double *)w->vertices.data;
+        if (!number) {
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
+            break;
+        }
+        for (j = 0; j < w->count; j++)
+            if ((number[j] = weld_point64(&work.welders[0], stored + 3 * j)) < 0) {
+                fail(failure, ERR_MEMORY, NULL, "out of memory");
+                break;
+            }
+        for (k = range_start(&work, t); k < range_start(&work, t + 1) && failure->kind == ERR_NONE; k++)
+            work.out[k] = number[work.out[k]];
+        free(number);
+        welder_free(w);
+    }
+    for (t = 1; t < work.ranges; t++)
+        if (work.welders[t].slots)
+            welder_free(&work.welders[t]);
+    if (failure->kind != ERR_NONE) {
+        if (work.welders[0].slots)
+            welder_free(&work.welders[0]);
+        return -1;
+    }
+    out->n = work.welders[0].count;
+    out->vertices = (double *)work.welders[0].vertices.data;
+    work.welders[0].vertices.data = NULL;
+    welder_free(&work.welders[0]);
+    if (!out->vertices && !(out->vertices = malloc(3 * sizeof(double)))) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
-    for (p = 0; p < s->parts; p++) {
-        const double *stored = (const double *)s->part[p].vertices.data;
-        const int64_t *number = (const int64_t *)s->global[p].data;
-        for (j = 0; j < s->part[p].count; j++)
-            memcpy(out->vertices + 3 * number[j], stored + 3 * j, 3 * sizeof(double));
-    }
-    split_free(s);
     return 0;
 }
 
@@ -314,41 +335,40 @@ static int finish(Welder *w, MeshArrays *out, Failure *failure)
     return 0;
 }
 
-#define WIDE 196608                                      /* float32 corners widened at a time */
+typedef struct {
+    const void *corners;
+    int single;
+} CornerArray;
+
+/* Points [first, first + count) of an array of float32 or float64 corners, as doubles (exact). */
+static int corner_source(void *context, int64_t first, int64_t count, double *points, Failure *failure)
+{
+    const CornerArray *array = context;
+    int64_t j;
+    (void)failure;
+    if (array->single)
+        for (j = 0; j < 3 * count; j++)
+            points[j] = ((const float *)array->corners)[3 * first + j];
+    else
+        memcpy(points, (const double *)array->corners + 3 * first, (size_t)count * 3 * sizeof(double));
+    return 0;
+}
 
 int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure)
 {
-    SplitWelder s;
-    int64_t k;
-    double *wide = single ? malloc((size_t)(3 * m < WIDE ? 3 * m + 1 : WIDE) * 3 * sizeof(double)) : NULL;
+    CornerArray array = {corners, single};
     out->m = m;
     out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
-    if (!out->faces || (single && !wide) || split_init(&s, threads, 3 * m) != 0) {
-        free(out->faces);
-        free(wide);
-        out->faces = NULL;
+    if (!out->faces) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
-    if (single) {
-        for (k = 0; k < 3 * m && failure->kind == ERR_NONE; k += WIDE) {
-            int64_t n = 3 * m - k < WIDE ? 3 * m - k : WIDE, j;
-            for (j = 0; j < 3 * n; j++)
-                wide[j] = ((const float *)corners)[3 * k + j];      /* exact */
-            if (split_points(&s, wide, n, out->faces + k) != 0)
-                fail(failure, ERR_MEMORY, NULL, "out of memory");
-        }
-    } else if (split_points(&s, corners, 3 * m, out->faces) != 0) {
-        fail(failure, ERR_MEMORY, NULL, "out of memory");
-    }
-    free(wide);
-    if (failure->kind != ERR_NONE) {
-        split_free(&s);
+    if (weld_source(corner_source, &array, 3 * m, threads, out, failure) != 0) {
         free(out->faces);
         out->faces = NULL;
         return -1;
     }
-    return split_finish(&s, out, failure);
+    return 0;
 }
 
 int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
