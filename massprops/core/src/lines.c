@@ -70,13 +70,14 @@ int lines_next(LineReader *r, const char **text, size_t *length)
 {
     size_t scanned = r->start;
     for (;;) {
-        char *found = NULL;
+        /* the first '\n' or '\r' at or after `scanned` (memchr: vectorised by the C library) */
+        char *newline = memchr(r->buffer + scanned, '\n', r->end - scanned);
+        char *found = memchr(r->buffer + scanned, '\r', (size_t)((newline ? newline : r->buffer + r->end)
+                                                                - (r->buffer + scanned)));
         size_t k;
-        for (k = scanned; k < r->end; k++)
-            if (r->buffer[k] == '\n' || r->buffer[k] == '\r') {
-                found = r->buffer + k;
-                break;
-            }
+        if (!found)
+            found = newline;
+        k = found ? (size_t)(found - r->buffer) : r->end;
         /* A '\r' at the end of the buffer may be the first half of "\r\n": read on first. */
         if (found && !(*found == '\r' && k + 1 == r->end && r->offset < r->size)) {
             *text = r->buffer + r->start;

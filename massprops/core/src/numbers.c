@@ -62,9 +62,16 @@ static int round_scaled(u128 x, int scale, int sticky, double *value)
     } else if (sticky) {
         return -1;                                   /* cannot happen: x has at least 63 bits then */
     }
-    if (bits + scale > 1000 || bits + scale < -1000)
-        return -1;
-    *value = ldexp((double)kept, shift + scale);     /* exact: a normal double times a power of two */
+    if (bits + scale > 1000 || shift + scale < -1000)
+        return -1;                                   /* near the ends of the range: strtod_l decides */
+    {
+        /* 2**(shift + scale) built from its bits: exact, and the product below is exact too
+         * (kept has at most 54 bits, the result is a normal double) */
+        uint64_t power_bits = (uint64_t)(1023 + shift + scale) << 52;
+        double power;
+        memcpy(&power, &power_bits, sizeof power);
+        *value = (double)kept * power;
+    }
     return 0;
 }
 
