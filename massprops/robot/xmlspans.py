@@ -1,0 +1,130 @@
+"""Byte offsets of the elements of an XML file, in document order, and the file parsed with them.
+
+:mod:`massprops.robot.write` replaces the bytes of single elements and must
+leave every other byte as it was, so it needs to know where each element
+starts and ends in the file; lxml gives line numbers only.  A small scanner
+walks the tags (skipping comments, CDATA, processing instructions and the
+document type) and pairs them with lxml's elements, which come in the same
+document order.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from .model import RobotFormatError
+
+__all__ = ["Span", "parse_with_spans", "element_spans"]
+
+_NAME = rb"[A-Za-z_:][-\w:.]*"
+_START = re.compile(rb"<(" + _NAME + rb")((?:\s+" + _NAME + rb"\s*=\s*(?:\"[^\"]*\"|'[^']*'))*)\s*(/?)>")
+_END = re.compile(rb"</(" + _NAME + rb")\s*>")
+_SKIP = ((b"<!--", b"-->"), (b"<![CDATA[", b"]]>"), (b"<?", b"?>"))
+
+
+@dataclass(frozen=True)
+class Span:
+    """Where one element sits: ``start`` at its ``<``, ``content`` just after its start tag, ``end`` after its close."""
+
+    tag: str
+    start: int
+    content: int
+    end: int
+
+    @property
+    def self_closing(self):
+        return self.content == self.end
+
+
+def _doctype_end(data, at):
+    """End of ``<!DOCTYPE ...>``, an internal subset ``[...]`` included."""
+    depth, i = 0, at + 2
+    while i < len(data):
+        c = data[i:i + 1]
+        if c == b"[":
+            depth += 1
+        elif c == b"]":
+            depth -= 1
+        elif c == b">" and depth <= 0:
+            return i + 1
+        i += 1
+    return len(data)
+
+
+def element_spans(data):
+    """Every element's :class:`Span`, in document order (the order lxml's ``iter()`` gives).
+
+    Raises
+    ------
+    ValueError
+        Tags that do not nest or do not parse.
+    """
+    spans, stack, i = [], [], 0
+    while True:
+        i = data.find(b"<", i)
+        if i < 0:
+            break
+        for opener, closer in _SKIP:
+            if data.startswith(opener, i):
+                stop = data.find(closer, i + len(opener))
+                i = len(data) if stop < 0 else stop + len(closer)
+                break
+        else:
+            if data.startswith(b"<!", i):
+                i = _doctype_end(data, i)
+                continue
+            end = _END.match(data, i)
+            if end:
+                if not stack or spans[stack[-1]][0] != end.group(1):
+                    raise ValueError(f"unexpected </{end.group(1).decode(errors='replace')}> at byte {i}")
+                k = stack.pop()
+                spans[k][3] = end.end()
+                i = end.end()
+                continue
+            start = _START.match(data, i)
+            if not start:
+                raise ValueError(f"cannot read the tag at byte {i}")
+            closed = bool(start.group(3))
+            spans.append([start.group(1), i, start.end(), start.end() if closed else None])
+            if not closed:
+                stack.append(len(spans) - 1)
+            i = start.end()
+    if stack:
+        raise ValueError("unclosed elements")
+    return [Span(tag.decode("utf-8", "replace"), s, c, e) for tag, s, c, e in spans]
+
+
+def _local(tag):
+    return tag.rpartition("}")[2] if tag.startswith("{") else tag.rpartition(":")[2]
+
+
+def parse_with_spans(path, *, data=None):
+    """Parse an XML file with lxml and pair each element with its :class:`Span`.
+
+    Returns
+    -------
+    (lxml root element, dict element -> Span or None, bytes)
+        The spans are None when the scanner and lxml disagree (entities that
+        expand to elements, say); the file is then read but not written.
+    """
+    from lxml import etree
+
+    if data is None:
+        with open(path, "rb") as handle:
+            data = handle.read()
+    parser = etree.XMLParser(remove_comments=False, resolve_entities=False, huge_tree=True)
+    try:
+        root = etree.fromstring(data, parser=parser, base_url=str(path))
+    except etree.XMLSyntaxError as exc:
+        raise RobotFormatError(f"not well-formed XML ({exc})", path=path,
+                               fix="fix the XML (an editor or `xmllint FILE` shows where)") from None
+    elements = [e for e in root.getroottree().iter() if isinstance(e.tag, str)]
+    try:
+        spans = element_spans(data)
+    except ValueError:
+        spans = None
+    if spans is None or len(spans) != len(elements) or any(
+            _local(s.tag) != _local(e.tag) for s, e in zip(spans, elements)):
+        return root, None, data
+    return root, dict(zip(elements, spans)), data
