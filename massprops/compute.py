@@ -10,10 +10,10 @@ import time
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from . import integrate as _integrate
+from .core import integrate as _integrate
 from .errors import MassPropsError, OptionError
-from .mesh import TriangleMesh, check_mesh
-from .parallel import PARALLEL_ABOVE, start
+from .mesh.surface import TriangleMesh, check_mesh
+from .core.parallel import PARALLEL_ABOVE, start
 from .properties import MassProperties
 from .resolution import annotate
 
@@ -67,10 +67,10 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
         first or second moments.
     density_field, density_map : optional
         Per-cell density of a volume mesh: a cell-data array's name, or
-        ``{group: density}`` (see :func:`massprops.volume.cell_densities`).
+        ``{group: density}`` (see :func:`massprops.mesh.volume.cell_densities`).
     shell : float, optional
         Treat the surface as a sheet of this thickness (mesh units), see
-        :mod:`massprops.shell`.
+        :mod:`massprops.mesh.sheet`.
 
     Returns
     -------
@@ -102,11 +102,11 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
     if shell is not None:
         if density_field is not None or density_map is not None:
             raise OptionError("--density-field and --density-map need a volume mesh, not --shell")
-        from .shell import shell_mass_properties
+        from .mesh.sheet import shell_mass_properties
         props, checks, warnings = shell_mass_properties(mesh, shell, order=order, path=path, **material)
         triangles = int(mesh.faces.shape[0])
     else:
-        from .volume import VolumeMesh, volume_mass_properties
+        from .mesh.volume import VolumeMesh, volume_mass_properties
         if not isinstance(mesh, VolumeMesh):
             raise OptionError("--density-field and --density-map need a volume mesh (cells with cell data or "
                               "groups)", path=path, fix="give a .vtu, .msh, .inp, ... file with volume cells")
@@ -127,7 +127,7 @@ def checked_moments(mesh, *, path=None, order=2, repair=False):
     """
     warnings = []
     if repair:
-        from .repair import repair_mesh
+        from .mesh.repair import repair_mesh
         mesh, changes = repair_mesh(mesh)
         warnings += changes
     # A large mesh is integrated in a second thread while it is checked; the

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshFormatError
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 
 def load_trimesh(path):

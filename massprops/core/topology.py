@@ -1,7 +1,7 @@
 """Which directed edges pair up, and which faces connect: the grouping behind the mesh checks.
 
 Edges are matched by a hash that is a bijection of the (lower, higher)
-vertex pair, grouped with hash tables (:mod:`massprops.grouping`), and
+vertex pair, grouped with hash tables (:mod:`massprops.core.grouping`), and
 counted per undirected edge with their direction, so a closed, consistently
 wound surface shows every edge used forward as often as backward.  Shells
 are the connected components of faces sharing vertices, by vectorised
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import MeshGeometryError
+from ..errors import MeshGeometryError
 from .grouping import group_ids, table_rounds
 
 __all__ = ["edge_balance", "match_edges", "uses", "face_components"]

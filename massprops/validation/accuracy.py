@@ -6,7 +6,7 @@ Two tables, each row measured, nothing assumed:
   ellipsoid), posed off the origin, at about 100 to 1M triangles.  Errors of
   massprops and trimesh against the smooth analytic values (which the
   tessellation itself limits) and against the exact values of the polyhedron
-  as stored (:func:`massprops.exact.exact_properties`), with run times.
+  as stored (:func:`massprops.validation.exact.exact_properties`), with run times.
 * **extreme**: offsets up to 1e8 part sizes, scales 1e-9 to 1e9, plates and
   needles of aspect 1e-6, float32 input, a million triangles — relative
   errors against the exact reference, whether massprops's reported bound
@@ -31,9 +31,9 @@ from fractions import Fraction
 import numpy as np
 
 from . import analytic, solids
-from .errors import MassPropsError
-from .frames import Pose
-from .mesh import TriangleMesh
+from ..errors import MassPropsError
+from ..frames import Pose
+from ..mesh.surface import TriangleMesh
 
 __all__ = ["tessellation_rows", "extreme_rows", "relative_errors", "markdown_table", "csv_text", "plot",
            "TESSELLATION_COLUMNS", "EXTREME_COLUMNS"]
@@ -48,7 +48,7 @@ FULL_LEVELS = (100, 1_000, 10_000, 100_000, 1_000_000)
 class Case:
     """One mesh to measure: its name, the mesh, its size (largest extent) and optional smooth values.
 
-    ``smooth`` is a :class:`massprops.analytic.Analytic` in the mesh's frame.
+    ``smooth`` is a :class:`massprops.validation.analytic.Analytic` in the mesh's frame.
     """
 
     name: str
@@ -121,7 +121,7 @@ def _values(source):
 
 def measure(case, *, repeat=None):
     """massprops and trimesh on one case against the exact (and smooth) values: one row dict."""
-    from .compute import mass_properties
+    from ..compute import mass_properties
     from .crosscheck import trimesh_values
     from .exact import exact_properties
 

@@ -39,8 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .face_terms import WORKSPACE_ROWS, chunk_sums, gamma as _gamma, workspace
-from .integrate_dd import U, integrate_double_double
+from .face_terms import WORKSPACE_ROWS, chunk_sums, workspace
+from .integrate_dd import integrate_double_double
+from .rounding import U, gamma as _gamma
 
 __all__ = ["Moments", "reference_frame", "integrate"]
 
@@ -194,10 +195,10 @@ def integrate(vertices, faces, *, order=2, chunk=_CHUNK, weights=None, measure="
         Highest moment to form: 0 volume, 1 first moments, 2 second moments.
     weights : ndarray, shape (m,), float64, optional
         A factor per face term, taken as exact (a cell's density, see
-        :mod:`massprops.volume`); its product adds one rounding to the bounds.
+        :mod:`massprops.mesh.volume`); its product adds one rounding to the bounds.
     measure : {"volume", "area"}
         "area" replaces each face's ``det`` by ``|(b − a) × (c − a)|`` (twice its
-        area), so the sums become surface integrals (:mod:`massprops.shell`).
+        area), so the sums become surface integrals (:mod:`massprops.mesh.sheet`).
 
     Returns
     -------
@@ -270,7 +271,7 @@ def _face_sums(scaled_axes, faces, order, measure, weights, chunk):
     numpy releases the GIL inside each operation, so threads run chunks in
     parallel; every chunk's sums are the same whichever thread forms them and
     ``fsum`` is exact, so the result does not depend on the thread count
-    (:func:`massprops.parallel.thread_count`).
+    (:func:`massprops.core.parallel.thread_count`).
 
     Returns
     -------

@@ -3,7 +3,7 @@
 Two views: ``raw`` is what a trimesh user gets (trimesh integrates about the
 origin), ``fair`` is trimesh on the same mesh shifted exactly to near its own
 bounding-box centre (massprops's reference point, see
-:func:`massprops.integrate.reference_frame`), so only the integration itself
+:func:`massprops.core.integrate.reference_frame`), so only the integration itself
 is compared.  Far from the origin, at ``ratio = offset / size``, the raw sums
 cancel: each face's term is ``ratio`` times larger than the part's total (one
 factor lost in the volume), and the inertia about the center of mass is then
@@ -17,12 +17,13 @@ import math
 
 import numpy as np
 
-from .report import relative_difference
+from ..core.rounding import U
+from ..report import plain, relative_difference
 
-__all__ = ["trimesh_values", "compare", "digits_lost", "trimesh_comparison", "explanation", "QUANTITIES"]
+__all__ = ["trimesh_values", "compare", "digits_lost", "trimesh_comparison", "explanation", "COMPARED"]
 
-QUANTITIES = ("volume", "center_of_mass", "inertia_com", "principal_moments")
-_U = 2.0 ** -52
+COMPARED = ("volume", "center_of_mass", "inertia_com", "principal_moments")
+_EPS = 2 * U                # machine epsilon: a relative difference below it is rounding
 
 
 def trimesh_values(vertices, faces, *, shift=None):
@@ -51,7 +52,7 @@ def compare(ours, theirs, size):
     The center of mass is judged against at least the part's ``size``.
     """
     return {key: relative_difference(ours[key], theirs[key], floor=size if key == "center_of_mass" else 0.0)
-            for key in QUANTITIES}
+            for key in COMPARED}
 
 
 def _placement(vertices):
@@ -82,12 +83,12 @@ def trimesh_comparison(path, result, *, mesh=None):
         ``offset`` and ``size`` (bounding-box centre's distance from the
         origin, largest extent; mesh units).
     """
-    from .integrate import reference_frame
-    from .io import read
+    from ..core.integrate import reference_frame
+    from ..io import read
 
     mesh = mesh or read(path)
     if not hasattr(mesh, "faces") or "shell_thickness" in result.checks:
-        from .errors import OptionError
+        from ..errors import OptionError
         raise OptionError("--check-trimesh compares solids bounded by surfaces, not volume meshes or shells",
                           path=path, fix="leave out --check-trimesh here")
     faces = mesh.faces
@@ -103,7 +104,7 @@ def trimesh_comparison(path, result, *, mesh=None):
     reference, _ = reference_frame(mesh.vertices)
     fair = trimesh_values(mesh.vertices, faces, shift=reference)
     offset, size = _placement(mesh.vertices)
-    return {"raw": _plainify(raw), "fair": _plainify(fair),
+    return {"raw": plain(raw), "fair": plain(fair),
             "relative_difference_raw": compare(ours, raw, size), "relative_difference": compare(ours, fair, size),
             "digits_lost_raw": digits_lost(mesh.vertices), "offset": offset, "size": size}
 
@@ -115,9 +116,9 @@ def explanation(comparison):
     """
     raw = max(comparison["relative_difference_raw"].values())
     fair = max(comparison["relative_difference"].values())
-    if not raw > 10 * max(fair, _U):
+    if not raw > 10 * max(fair, _EPS):
         return None
-    measured = min(16.0, math.log10(raw / max(fair, _U)))
+    measured = min(16.0, math.log10(raw / max(fair, _EPS)))
     ratio = comparison["offset"] / comparison["size"]
     return (f"trimesh integrates about the origin, and this part sits {comparison['offset']:.3g} from it, "
             f"{ratio:.3g} times its size: its sums cancel, and the inertia about the center of mass is a "
@@ -127,9 +128,5 @@ def explanation(comparison):
 
 
 def _unit_length(props):
-    from .properties import unit_factor
+    from ..properties import unit_factor
     return float(unit_factor(props.unit))
-
-
-def _plainify(values):
-    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in values.items()}

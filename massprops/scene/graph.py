@@ -14,19 +14,19 @@ from fractions import Fraction
 
 import numpy as np
 
-from .errors import MeshFormatError, MeshGeometryError
-from .frames import Pose
-from .scene import Part, Scene
+from ..core.rounding import U as _U
+from ..errors import MeshFormatError, MeshGeometryError
+from ..frames import Pose
+from .model import Part, Scene
 
 __all__ = ["graph_scene", "placement_poses", "stretched_moments", "stretched_area2"]
 
-_U = 2.0 ** -53
 
 
 def graph_scene(path, density):
     """Every node with geometry becomes a part with its world transform (instances share meshes)."""
-    from .io.trimesh_formats import load_trimesh
-    from .mesh import TriangleMesh
+    from ..io.trimesh_formats import load_trimesh
+    from ..mesh.surface import TriangleMesh
     loaded = load_trimesh(path)
     if not hasattr(loaded, "graph"):
         loaded = __import__("trimesh").Scene(loaded)
@@ -81,7 +81,7 @@ def placement_poses(linear, translation, *, path=None):
 def stretched_moments(moments, stretch):
     """Raw moments of the mesh mapped by ``P`` (``x'' = P x'``), exactly up to one rounding each.
 
-    With ``y`` the scaled coordinates of :class:`massprops.integrate.Moments`,
+    With ``y`` the scaled coordinates of :class:`massprops.core.integrate.Moments`,
     ``Σdet ↦ |det P| Σdet``, ``first ↦ |det P| P first``, ``second ↦
     |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
     rationals).  The area is not a function of the moments; it is set by the

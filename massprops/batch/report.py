@@ -13,8 +13,8 @@ import csv
 import json
 import os
 
-from . import report
-from .errors import OptionError
+from .. import report
+from ..errors import OptionError
 
 __all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_error"]
 

@@ -9,8 +9,8 @@ A constant torque is given in body axes (``T'``) or world axes (``T``).
 Internally everything runs in the principal frame (moments ``I1 ≤ I2 ≤ I3``;
 moments equal within the SPEC's degeneracy tolerance are made equal, so an
 axisymmetric mesh is treated as axisymmetric); results come back in the SPEC
-frames.  The torque-free closed form is in :mod:`massprops.dynamics_exact`, the splitting
-integrators in :mod:`massprops.dynamics_split`.
+frames.  The torque-free closed form is in :mod:`massprops.dynamics.closed_form`, the splitting
+integrators in :mod:`massprops.dynamics.splitting`.
 """
 
 from __future__ import annotations
@@ -21,10 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import OptionError
-from .principal import principal
+from ..errors import OptionError
+from ..frames import quat_conjugate, quat_from_matrix, quat_multiply, quat_to_matrix
+from .body import RigidBody, trajectory_from_principal
 
-__all__ = ["RigidBody", "Trajectory", "angular_momentum", "kinetic_energy", "euler_rhs", "simulate",
+__all__ = ["simulate", "trajectory_error", "work_precision",
            "METHODS", "SPLITTING", "DEFAULT_METHOD"]
 
 SPLITTING = {"split2": 2, "split4": 4, "split6": 6}
@@ -39,177 +40,6 @@ _W4 = (1 / (2 - _CBRT2), -_CBRT2 / (2 - _CBRT2), 1 / (2 - _CBRT2))
 _Y6 = (0.784513610477560, 0.235573213359357, -1.17767998417887)
 _W6 = _Y6 + (1 - 2 * sum(_Y6),) + _Y6[::-1]
 _WEIGHTS = {2: (1.0,), 4: _W4, 6: _W6}
-
-
-def angular_momentum(inertia, omega, rotation=None):
-    """``(H', H)``: angular momentum about the COM in body and world axes.
-
-    Parameters
-    ----------
-    inertia : array_like, shape (3, 3)
-        ``J'`` about the center of mass, body axes.
-    omega : array_like, shape (3,) or (n, 3)
-        ``ω'``, body axes, rad/s.
-    rotation : array_like, shape (3, 3) or (n, 3, 3), optional
-        Attitude ``A`` (body to world); identity by default.
-    """
-    local = np.asarray(omega, dtype=float) @ np.asarray(inertia, dtype=float).T
-    if rotation is None:
-        return local, local.copy()
-    return local, np.einsum("...ij,...j->...i", np.asarray(rotation, dtype=float), local)
-
-
-def kinetic_energy(inertia, omega):
-    """``½ ω'ᵀ J' ω'`` (float, or shape (n,) for ``omega`` of shape (n, 3))."""
-    w = np.asarray(omega, dtype=float)
-    return 0.5 * np.einsum("...i,ij,...j->...", w, np.asarray(inertia, dtype=float), w)
-
-
-def euler_rhs(inertia, omega, torque=(0.0, 0.0, 0.0)):
-    """``ω̇' = J'⁻¹ (T' − ω' × J' ω')``: Euler's equations in body axes."""
-    j = np.asarray(inertia, dtype=float)
-    w = np.asarray(omega, dtype=float)
-    return np.linalg.solve(j, np.asarray(torque, dtype=float) - np.cross(w, j @ w))
-
-
-def quat_multiply(p, q):
-    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, shapes (..., 4)."""
-    pw, pv = p[..., :1], p[..., 1:]
-    qw, qv = q[..., :1], q[..., 1:]
-    return np.concatenate([pw * qw - np.sum(pv * qv, axis=-1, keepdims=True),
-                           pw * qv + qw * pv + np.cross(pv, qv)], axis=-1)
-
-
-def quat_to_matrix(q):
-    """Rotation matrices (..., 3, 3) of quaternions (..., 4), normalised first."""
-    q = np.asarray(q, dtype=float)
-    w, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
-
-
-def quat_from_matrix(rotation):
-    """Unit quaternions (..., 4), ``w ≥ 0``, of proper rotation matrices (..., 3, 3).
-
-    Shepperd's method: the largest of ``4w², 4x², 4y², 4z²`` is taken from the
-    diagonal and the rest from off-diagonal sums, so no component is formed
-    from a small difference.
-    """
-    m = np.asarray(rotation, dtype=float)
-    trace = np.trace(m, axis1=-2, axis2=-1)
-    diagonal = np.stack([trace, m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]], axis=-1)
-    big = np.argmax(diagonal, axis=-1)[..., None]
-    scale = np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(diagonal, big, -1) - trace[..., None], 0.0))
-    sums = np.stack([
-        np.stack([scale[..., 0] ** 2, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
-                  m[..., 1, 0] - m[..., 0, 1]], -1),
-        np.stack([m[..., 2, 1] - m[..., 1, 2], scale[..., 0] ** 2, m[..., 0, 1] + m[..., 1, 0],
-                  m[..., 0, 2] + m[..., 2, 0]], -1),
-        np.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], scale[..., 0] ** 2,
-                  m[..., 1, 2] + m[..., 2, 1]], -1),
-        np.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1],
-                  scale[..., 0] ** 2], -1)], -2)
-    q = np.take_along_axis(sums, big[..., None], -2)[..., 0, :] / (2.0 * scale)
-    return q * np.where(q[..., :1] < 0, -1.0, 1.0)
-
-
-def axis_angle_quat(axis, angle):
-    """Quaternions (..., 4) of rotations by ``angle`` (...) about unit ``axis`` (..., 3)."""
-    half = 0.5 * np.asarray(angle, dtype=float)[..., None]
-    return np.concatenate([np.cos(half), np.sin(half) * np.asarray(axis, dtype=float)], axis=-1)
-
-
-@dataclass(frozen=True)
-class RigidBody:
-    """A body's principal moments (3,) ascending and principal axes (3, 3) as rows, body axes.
-
-    Build with :meth:`from_inertia`; ``axes.T`` maps principal to body
-    coordinates.
-    """
-
-    moments: np.ndarray
-    axes: np.ndarray
-
-    @classmethod
-    def from_inertia(cls, inertia):
-        """From ``J'`` (3, 3); moments in a degenerate group (SPEC tolerance) are averaged."""
-        j = np.asarray(inertia, dtype=float)
-        if j.shape != (3, 3) or not np.all(np.isfinite(j)):
-            raise OptionError(f"an inertia tensor needs 3×3 finite numbers, got shape {j.shape}")
-        found = principal(j)
-        moments = np.array(found.moments, dtype=float)
-        for group in found.degenerate:
-            moments[list(group)] = moments[list(group)].mean()
-        if not moments[0] > 0:
-            raise OptionError(f"the inertia tensor is not positive definite (moments {moments})",
-                              fix="check the mesh: a rigid body has positive principal moments")
-        return cls(moments, np.array(found.axes, dtype=float))
-
-    @property
-    def inertia(self):
-        """``J'`` rebuilt from moments and axes (3, 3), body axes."""
-        return self.axes.T @ np.diag(self.moments) @ self.axes
-
-    def to_principal(self, vectors):
-        """Body-axes vectors (..., 3) in principal axes."""
-        return np.asarray(vectors, dtype=float) @ self.axes.T
-
-    def to_body(self, vectors):
-        """Principal-axes vectors (..., 3) in body axes."""
-        return np.asarray(vectors, dtype=float) @ self.axes
-
-    @property
-    def axes_quat(self):
-        """Quaternion (4,) of the rotation principal → body (the matrix ``axes.T``)."""
-        return quat_from_matrix(self.axes.T)
-
-
-@dataclass(frozen=True, eq=False)
-class Trajectory:
-    """A sampled motion, SPEC frames.
-
-    Attributes
-    ----------
-    t : ndarray, shape (n,)
-        Seconds from the start.
-    omega : ndarray, shape (n, 3)
-        ``ω'``, body axes, rad/s.
-    quat : ndarray, shape (n, 4)
-        Attitude ``A`` (body to world), scalar first.
-    momentum : ndarray, shape (n, 3)
-        ``H = A J' ω'``, world axes.
-    energy : ndarray, shape (n,)
-        ``K = ½ ω'ᵀ J' ω'``.
-    method : str
-    steps : int
-        Work done: splitting, the fixed steps; scipy, right-hand-side evaluations.
-    elapsed_s : float
-    """
-
-    t: np.ndarray
-    omega: np.ndarray
-    quat: np.ndarray
-    momentum: np.ndarray
-    energy: np.ndarray
-    method: str = "exact"
-    steps: int = 0
-    elapsed_s: float = 0.0
-
-
-def trajectory_from_principal(body, t, omega_p, quat_p, *, method, steps, elapsed_s):
-    """Turn principal-frame samples (ω_p, quaternion of ``A V``) into a :class:`Trajectory`."""
-    omega = body.to_body(omega_p)
-    quat = quat_multiply(quat_p, np.broadcast_to(quat_conjugate(body.axes_quat), quat_p.shape))
-    h_principal = omega_p * body.moments
-    momentum = np.einsum("nij,nj->ni", quat_to_matrix(quat_p), h_principal)
-    energy = 0.5 * np.sum(omega_p * h_principal, axis=1)
-    return Trajectory(np.asarray(t, dtype=float), omega, quat, momentum, energy, method, steps, elapsed_s)
-
-
-def quat_conjugate(q):
-    """The inverse rotation of unit quaternions (..., 4)."""
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def simulate(inertia, omega, duration, *, attitude=None, torque=None, torque_frame="body",
@@ -257,7 +87,7 @@ def simulate(inertia, omega, duration, *, attitude=None, torque=None, torque_fra
     samples = max(2, int(samples))
     start = time.perf_counter()
     if method in SPLITTING:
-        from .dynamics_split import integrate_split
+        from .splitting import integrate_split
         order = SPLITTING[method]
         if steps is None:
             steps = _steps_for(body, omega_p, torque_p, duration, order, rtol)
@@ -296,7 +126,7 @@ def _steps_for(body, omega_p, torque_p, duration, order, rtol):
     axis flows over the motion; ``c`` was measured on asymmetric, near-
     separatrix and needle-like bodies and rounded up.
     """
-    from .dynamics_exact import polhode
+    from .closed_form import polhode
     scale = np.abs(body.moments * (1.0 / body.moments - 1.0 / body.moments[1]))[[0, 2]]
     if np.any(torque_p):
         # The torque speeds the body up: take the mean |ω| over the run, and the
@@ -365,7 +195,7 @@ class WorkPrecision:
 
 def work_precision(inertia, omega, duration, *, attitude=None, methods=METHODS,
                    tolerances=(1e-4, 1e-6, 1e-8, 1e-10), samples=201):
-    """Each method at each tolerance, torque-free, against :func:`~massprops.dynamics_exact.torque_free`.
+    """Each method at each tolerance, torque-free, against :func:`~massprops.dynamics.closed_form.torque_free`.
 
     Splitting methods turn ``rtol`` into a step count (see :func:`simulate`).
 
@@ -373,7 +203,7 @@ def work_precision(inertia, omega, duration, *, attitude=None, methods=METHODS,
     -------
     list of WorkPrecision
     """
-    from .dynamics_exact import torque_free
+    from .closed_form import torque_free
     rows, references = [], {}
     for method in methods:
         # Warm up: the first call of a method pays for imports, not for integration.

@@ -29,17 +29,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MassPropsError
+from ..errors import MassPropsError
 
-__all__ = ["QUANTITIES", "EXPECTED_COLUMNS", "Expected", "Deviation", "Comparison", "expected_row",
+__all__ = ["COLUMNS_OF", "EXPECTED_COLUMNS", "Expected", "Deviation", "Comparison", "expected_row",
            "read_expected", "write_expected", "compare", "deviation_table", "junit_xml"]
 
-QUANTITIES = {
+COLUMNS_OF = {
     "volume": ("volume",), "mass": ("mass",), "center_of_mass": ("cx", "cy", "cz"),
     "inertia_com": ("Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"), "principal_moments": ("I1", "I2", "I3"),
     "principal_axes": tuple(f"a{k}{c}" for k in (1, 2, 3) for c in "xyz"),
 }
-EXPECTED_COLUMNS = ["file", "density", "unit", "triangles", *[c for cols in QUANTITIES.values() for c in cols],
+EXPECTED_COLUMNS = ["file", "density", "unit", "triangles", *[c for cols in COLUMNS_OF.values() for c in cols],
                     "degenerate"]
 _TENSOR_INDEX = {"Ixx": (0, 0), "Iyy": (1, 1), "Izz": (2, 2), "Ixy": (0, 1), "Ixz": (0, 2), "Iyz": (1, 2)}
 # Beyond this angle (radians) an axis is not determined by the tolerance: compare its subspace.
@@ -93,10 +93,10 @@ def expected_row(label, *, volume, mass, center_of_mass, inertia_com, principal,
     """A row of :data:`EXPECTED_COLUMNS` (values as ``repr`` strings, so they round-trip)."""
     row = {"file": label, "density": "" if density is None else repr(float(density)), "unit": unit or "",
            "triangles": str(int(triangles)), "volume": repr(float(volume)), "mass": repr(float(mass))}
-    row.update(zip(QUANTITIES["center_of_mass"], (repr(float(x)) for x in center_of_mass)))
+    row.update(zip(COLUMNS_OF["center_of_mass"], (repr(float(x)) for x in center_of_mass)))
     row.update({c: repr(float(inertia_com[i][j])) for c, (i, j) in _TENSOR_INDEX.items()})
-    row.update(zip(QUANTITIES["principal_moments"], (repr(float(x)) for x in principal.moments)))
-    row.update(zip(QUANTITIES["principal_axes"], (repr(float(x)) for x in np.ravel(principal.axes))))
+    row.update(zip(COLUMNS_OF["principal_moments"], (repr(float(x)) for x in principal.moments)))
+    row.update(zip(COLUMNS_OF["principal_axes"], (repr(float(x)) for x in np.ravel(principal.axes))))
     row["degenerate"] = json.dumps([list(g) for g in principal.degenerate])
     return row
 
@@ -144,7 +144,7 @@ def read_expected(path):
     for line, row in enumerate(rows, 2):
         if (row.get("status") or "ok") != "ok":
             continue                                   # a failed row of a batch CSV holds no values
-        values = {c: _number(row[c], c, line, path) for cols in QUANTITIES.values() for c in cols
+        values = {c: _number(row[c], c, line, path) for cols in COLUMNS_OF.values() for c in cols
                   if (row.get(c) or "").strip()}
         if not values:
             raise MassPropsError(f"line {line}: no expected values for {row['file']!r}", path=path,
@@ -166,20 +166,20 @@ def _element(quantity, column, expected, actual, scale, tolerance):
 
 def _actual_values(properties):
     values = {"volume": properties.volume, "mass": properties.mass}
-    values.update(zip(QUANTITIES["center_of_mass"], properties.center_of_mass))
+    values.update(zip(COLUMNS_OF["center_of_mass"], properties.center_of_mass))
     values.update({c: properties.inertia_com[i, j] for c, (i, j) in _TENSOR_INDEX.items()})
-    values.update(zip(QUANTITIES["principal_moments"], properties.principal.moments))
+    values.update(zip(COLUMNS_OF["principal_moments"], properties.principal.moments))
     return {k: float(v) for k, v in values.items()}
 
 
 def _scales(expected, actual):
     """The scale each quantity's elements are judged against (see the module docstring)."""
     get = lambda c: expected.get(c, actual[c])  # noqa: E731 - a missing expected cell falls back to ours
-    inertia = max(abs(get(c)) for c in QUANTITIES["inertia_com"])
+    inertia = max(abs(get(c)) for c in COLUMNS_OF["inertia_com"])
     gyration = math.sqrt(inertia / abs(get("mass"))) if get("mass") else 0.0
     return {"volume": abs(get("volume")), "mass": abs(get("mass")),
-            "center_of_mass": max(gyration, *(abs(get(c)) for c in QUANTITIES["center_of_mass"])),
-            "inertia_com": inertia, "principal_moments": max(abs(get(c)) for c in QUANTITIES["principal_moments"])}
+            "center_of_mass": max(gyration, *(abs(get(c)) for c in COLUMNS_OF["center_of_mass"])),
+            "inertia_com": inertia, "principal_moments": max(abs(get(c)) for c in COLUMNS_OF["principal_moments"])}
 
 
 def _axis_groups(moments, degenerate, rtol, scale):
@@ -195,7 +195,7 @@ def _axis_groups(moments, degenerate, rtol, scale):
 
 
 def _axes_deviations(expected, principal, rtol, scale):
-    columns = QUANTITIES["principal_axes"]
+    columns = COLUMNS_OF["principal_axes"]
     if not all(c in expected.values for c in columns):
         return []
     axes = np.array([expected.values[c] for c in columns]).reshape(3, 3)
@@ -234,7 +234,7 @@ def compare(expected, properties, *, rtol=1e-9, atol=0.0):
     actual = _actual_values(properties)
     scales = _scales(expected.values, actual)
     deviations = []
-    for quantity, columns in QUANTITIES.items():
+    for quantity, columns in COLUMNS_OF.items():
         if quantity != "principal_axes":
             tolerance = atol + rtol * scales[quantity]
             deviations += [_element(quantity, c, expected.values[c], actual[c], scales[quantity], tolerance)
@@ -294,7 +294,7 @@ def junit_xml(cases, *, rtol, atol):
     ET.SubElement(ET.SubElement(suite, "properties"), "property", name="tolerance",
                   value=f"rtol={rtol:g} atol={atol:g}")
     for label, comparison, error, seconds in cases:
-        case = ET.SubElement(suite, "testcase", classname="massprops.regress", name=label, time=f"{seconds:.3f}")
+        case = ET.SubElement(suite, "testcase", classname="massprops.validation.regress", name=label, time=f"{seconds:.3f}")
         if comparison is None:
             ET.SubElement(case, "error", message=error or "could not be computed").text = error
         elif comparison.failed:

@@ -12,7 +12,7 @@ Per triangle (a, b, c) of area A, ``s = a + b + c``::
 
     ∫ 1 dA = A,   ∫ x dA = A s / 3,   ∫ x xᵀ dA = A (s sᵀ + a aᵀ + b bᵀ + c cᵀ) / 12
 
-These are the sums :func:`massprops.integrate.integrate` forms with
+These are the sums :func:`massprops.core.integrate.integrate` forms with
 ``measure="area"`` (``2A`` in place of ``det``); scaled by ``3t``, ``4t`` and
 ``5t`` they are exactly the solid sums of a body of volume ``t A`` with those
 moments, so :meth:`MassProperties.from_moments` does the rest as for a solid.
@@ -25,11 +25,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
-from .integrate import U, integrate
-from .mesh import TriangleMesh, check_mesh, distinct_faces
-from .topology import edge_balance, face_components
-from .properties import MassProperties
+from ..errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
+from ..core.integrate import integrate
+from ..core.rounding import U
+from .surface import TriangleMesh, check_mesh, distinct_faces
+from ..core.topology import edge_balance, face_components
+from ..properties import MassProperties
 
 __all__ = ["shell_moments", "shell_mass_properties"]
 
@@ -41,7 +42,7 @@ def _times(value, error, factor):
 
 
 def shell_moments(vertices, faces, thickness, *, order=2):
-    """The solid-equivalent :class:`massprops.integrate.Moments` of a sheet.
+    """The solid-equivalent :class:`massprops.core.integrate.Moments` of a sheet.
 
     Parameters
     ----------

@@ -7,7 +7,7 @@ gives a record with ``status=error`` and its one-line message; the run goes on.
 
 Records are appended to the report as files finish, so an interrupted run
 keeps its work; the finished report is rewritten sorted by path, and a state
-file next to it lets ``resume`` skip unchanged files (:mod:`massprops.batch_report`).
+file next to it lets ``resume`` skip unchanged files (:mod:`massprops.batch.report`).
 
 Work runs in this process (one job), in a process pool, or on a Dask cluster
 (``scheduler="local"`` or ``"tcp://HOST:PORT"``); every path calls the same
@@ -24,9 +24,9 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from .errors import MassPropsError, MeshReadError, OptionError
-from .batch_report import ReportWriter, file_stat, is_error, plan, record, state_path
-from .frames import Pose
+from ..errors import MassPropsError, MeshReadError, OptionError
+from .report import ReportWriter, file_stat, is_error, plan, record, state_path
+from ..frames import Pose
 
 __all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "expand_inputs", "run_one", "run_chunk",
            "run_batch", "check_settings", "state_path", "default_jobs"]
@@ -97,7 +97,7 @@ def default_jobs():
 # ---------------------------------------------------------------- inputs
 
 def _mesh_files_in(directory, recursive):
-    from .io import EXTENSIONS
+    from ..io import EXTENSIONS
     found = []
     for root, dirs, names in os.walk(directory):
         dirs.sort()
@@ -184,8 +184,8 @@ def error_message(exc):
 
 def run_one(path, settings=Settings(), output_format="csv"):
     """Compute one file's record; never raises for a bad file (it becomes an error record)."""
-    from . import report
-    from .compute import mass_properties
+    from .. import report
+    from ..compute import mass_properties
     try:
         if os.path.isdir(path):
             raise MeshReadError("is a directory holding no mesh files", path=path,
@@ -207,8 +207,8 @@ def run_chunk(paths, settings=Settings(), output_format="csv"):
 
 def check_settings(settings):
     """Raise the OptionError a bad setting would give on every file, before the run starts."""
-    from .compute import mass_properties
-    from .solids import tetrahedron
+    from ..compute import mass_properties
+    from ..validation.solids import tetrahedron
     mass_properties(tetrahedron(), density=settings.density, mass=settings.mass, unit=settings.unit,
                     pose=settings.pose, repair=settings.repair)
     return True

@@ -12,7 +12,7 @@ gives 6 tetrahedra, a wedge 3, a pyramid 2).
 
 Integrating, exactly: a positive tetrahedron is the signed sum of the cones
 from the reference point over its four outward faces, so a cell of density ρ
-contributes ρ times the cone integrals of :func:`massprops.integrate.integrate`
+contributes ρ times the cone integrals of :func:`massprops.core.integrate.integrate`
 over its faces.  A face shared by two cells of equal density appears twice,
 once each way: the pair cancels exactly and is dropped, so a body of one
 density is integrated over its boundary surface alone (the surface path,
@@ -25,12 +25,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import MeshGeometryError, OptionError
-from .face_terms import DET_BOUND as _DET_BOUND
-from .grouping import group_ids
-from .integrate import U as _U, integrate, reference_frame
-from .properties import MassProperties
-from .topology import face_components
+from ..errors import MeshGeometryError, OptionError
+from ..core.face_terms import DET_BOUND as _DET_BOUND
+from ..core.grouping import group_ids
+from ..core.integrate import integrate, reference_frame
+from ..core.rounding import U as _U
+from ..properties import MassProperties
+from ..core.topology import face_components
 
 __all__ = ["VolumeMesh", "CELL_FACES", "parse_density_map", "cell_densities", "volume_mass_properties"]
 

@@ -1,6 +1,6 @@
 """The double-double pass of the volume integrals, for meshes whose tetrahedra cancel.
 
-The fast pass in :mod:`massprops.integrate` is accurate to a few units of
+The fast pass in :mod:`massprops.core.integrate` is accurate to a few units of
 rounding of ``Σ|det|``.  When the tetrahedra from the reference point cancel
 heavily (``Σ|det| ≫ |Σ det|``: a thin rotated plate or needle whose bounding box
 straddles the origin, where no exact shift to its centre exists), that is not
@@ -17,9 +17,10 @@ import math
 
 import numpy as np
 
+from .rounding import U, gamma
+
 __all__ = ["integrate_double_double", "det_double_double", "DET_ERROR"]
 
-U = 2.0 ** -53
 _SPLITTER = 134217729.0
 
 
@@ -60,17 +61,13 @@ _I, _J, _K = ([0, 1, 2, 0, 1, 2], [1, 2, 0, 2, 0, 1], [2, 0, 1, 1, 2, 0])
 _SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])[:, None]
 
 
-def _gamma(k):
-    return k * U / (1.0 - k * U)
-
-
 # The error of det_double_double's hi + lo, relative to its permanent P = Σ|major|
 # (≥ (1 − γ(5)) of the exact Σ|major|).  lo is a float sum of 17 values (γ(16)
 # of their magnitudes): the 5 exact TwoSum errors of the tree over the six major
 # terms (≤ u of its partial sums, over 3 levels: ≤ 3u(1 + γ(3)) Σ|major|), the six
 # exact product errors (≤ u |major|) and the six minor terms (≤ u(1 + γ(2)) |major|);
 # the minor terms' own roundings add ≤ u²(1 + γ(2)) Σ|major|.
-DET_ERROR = (5.0 * _gamma(16) + U) * U * (1.0 + _gamma(12))
+DET_ERROR = (5.0 * gamma(16) + U) * U * (1.0 + gamma(12))
 
 
 def det_double_double(a, b, c):

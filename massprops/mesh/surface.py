@@ -6,9 +6,9 @@ the right-hand normal points out of the solid.  Vertices are welded by exact
 coordinates only: massprops never merges points that are merely close.
 
 Grouping equal keys (welding vertices, pairing edges, finding duplicate faces)
-uses one mechanism, :mod:`massprops.grouping`: exact, vectorised, and linear in
+uses one mechanism, :mod:`massprops.core.grouping`: exact, vectorised, and linear in
 the number of keys, so a million-triangle mesh needs no sort.  Edge matching
-and shells live in :mod:`massprops.topology`.
+and shells live in :mod:`massprops.core.topology`.
 """
 
 from __future__ import annotations
@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import MeshGeometryError, OpenMeshError, WindingError
-from .grouping import first_of_groups, group_ids, labels_of, point_representatives
-from .topology import face_components, match_edges, uses as _uses
-from .parallel import PARALLEL_ABOVE, start
+from ..errors import MeshGeometryError, OpenMeshError, WindingError
+from ..frames import matvec
+from ..core.grouping import first_of_groups, group_ids, labels_of, point_representatives
+from ..core.topology import face_components, match_edges, uses as _uses
+from ..core.parallel import PARALLEL_ABOVE, start
 
 __all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
 
@@ -87,7 +88,7 @@ class TriangleMesh:
 
     def transformed(self, rotation, translation):
         """The mesh with every vertex mapped to ``rotation @ x + translation``."""
-        vertices = self.vertices @ np.asarray(rotation, float).T + np.asarray(translation, float)
+        vertices = matvec(rotation, self.vertices) + np.asarray(translation, float)
         return TriangleMesh(vertices, self.faces, np.dtype(np.float64))
 
 

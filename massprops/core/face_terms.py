@@ -1,6 +1,6 @@
 """One chunk of faces: the integrand's terms per face and their pairwise sums.
 
-The inner loop of :mod:`massprops.integrate`, on coordinates already shifted
+The inner loop of :mod:`massprops.core.integrate`, on coordinates already shifted
 and scaled there.  Each face's determinant carries Shewchuk's a-priori bound;
 faces whose bound is too loose relative to their determinant (slivers,
 needles, plates seen edge-on) are re-evaluated here: from a rotation of their
@@ -16,17 +16,13 @@ from fractions import Fraction
 
 import numpy as np
 
-from .integrate_dd import DET_ERROR, U, det_double_double
+from .integrate_dd import DET_ERROR, det_double_double
+from .rounding import U, gamma
 
 __all__ = ["WORKSPACE_ROWS", "workspace", "chunk_sums"]
 
 DET_BOUND = (7.0 + 56.0 * U) * U           # Shewchuk's o3derrboundA
 _REFINE_ABOVE = 64.0 * U                   # relative det bound that sends a face to the slow path
-
-
-def gamma(k):
-    """γ(k) = k u / (1 − k u): the relative error of k roundings."""
-    return k * U / (1.0 - k * U)
 
 
 def _refined_det(a, b, c):

@@ -3,7 +3,7 @@
 Every float is ``n · 2**e``; after one common power-of-two scaling all
 coordinates are Python integers, the signed-tetrahedron sums about the origin
 are exact integers, and the few divisions at the end are exact Fractions.
-Nothing here shares code with :mod:`massprops.integrate`, so it can judge it.
+Nothing here shares code with :mod:`massprops.core.integrate`, so it can judge it.
 Vectorised over numpy object arrays: about a second per 100k triangles.
 """
 

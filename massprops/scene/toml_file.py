@@ -14,10 +14,10 @@ import os
 
 import numpy as np
 
-from .errors import MassPropsError, MeshFormatError
-from .frames import Pose, quaternion_matrices
-from .properties import unit_factor
-from .scene import DEFAULT_QUANTITIES, Frame, Part, Placements, ReportRequest, Scene
+from ..errors import MassPropsError, MeshFormatError
+from ..frames import Pose, quat_to_matrix
+from ..properties import unit_factor
+from .model import DEFAULT_QUANTITIES, Frame, Part, Placements, ReportRequest, Scene
 
 __all__ = ["toml_scene", "read_instances"]
 
@@ -215,7 +215,7 @@ def _checked_placements(positions, quaternions, names, row_name):
         first = next(k for k, n in enumerate(names) if n in seen or seen.add(n))
         raise MeshFormatError(f"{row_name(first)}: the name {names[first]!r} is used twice",
                               fix="give every instance its own name")
-    return Placements(quaternion_matrices(quaternions), positions, None if names is None else tuple(names))
+    return Placements(quat_to_matrix(quaternions), positions, None if names is None else tuple(names))
 
 
 def read_instances(path):

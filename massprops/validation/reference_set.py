@@ -5,10 +5,10 @@ Each solid is written twice, as binary STL (float32 corners) and as OBJ
 every file ``expected.csv`` holds:
 
 * the **exact polyhedral values of the tessellation as written**: rational
-  arithmetic (:func:`massprops.exact.exact_properties`) on the corners as the
+  arithmetic (:func:`massprops.validation.exact.exact_properties`) on the corners as the
   file stores them, rounded once — so an STL's row differs from its OBJ's by
   the float32 rounding of the corners;
-* the **smooth analytic values** of the ideal solid (:mod:`massprops.analytic`);
+* the **smooth analytic values** of the ideal solid (:mod:`massprops.validation.analytic`);
 * the **tessellation error** between the two (for an STL it includes the
   float32 storage, which dominates far from the origin).
 
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import analytic, solids
-from .frames import Pose
-from .mesh import TriangleMesh
+from ..frames import Pose
+from ..mesh.surface import TriangleMesh
 from .regress import expected_row, write_expected
 
 __all__ = ["ReferenceSolid", "reference_solids", "write_reference_set", "EXTRA_COLUMNS", "POSE_ROTATION",
@@ -127,7 +127,7 @@ def _floats(exact):
 def exact_row(label, triangles, solid):
     """The expected.csv row of one file: exact values of ``triangles`` (as stored), smooth values, errors."""
     from .exact import exact_properties
-    from .principal import principal
+    from ..principal import principal
 
     volume, center, inertia = _floats(exact_properties(triangles))
     row = expected_row(label, volume=volume, mass=volume, center_of_mass=center, inertia_com=inertia,
@@ -160,7 +160,7 @@ def write_reference_set(directory, reference=None):
     list of dict
         The rows written to ``expected.csv`` (one per file, sorted by file name).
     """
-    from .io import obj, stl
+    from ..io import obj, stl
 
     directory = os.fspath(directory)
     os.makedirs(directory, exist_ok=True)

@@ -7,8 +7,8 @@ terms.  The assembly's total is formed with centred formulas: each part's
 ``J_Gi`` is shifted to the total center of mass (``ρ_i = r_i − r``), so no
 large, nearly equal numbers are subtracted.
 
-Scene files are read by :mod:`massprops.scene_toml` (the TOML format, with
-compact lists of many instances held as arrays) and :mod:`massprops.scene_graph`
+Scene files are read by :mod:`massprops.scene.toml_file` (the TOML format, with
+compact lists of many instances held as arrays) and :mod:`massprops.scene.graph`
 (GLB/glTF/3MF, with exact non-uniform scale).
 """
 
@@ -18,180 +18,20 @@ import math
 import os
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .compute import QUANTITIES, checked_moments, order_for
-from .errors import MassPropsError, MeshFormatError, MeshReadError
-from .frames import Pose
-from .properties import ErrorBounds, MassProperties, unit_factor
+from ..compute import QUANTITIES, checked_moments
+from ..core.rounding import U as _U
+from ..errors import MassPropsError, MeshFormatError, MeshReadError
+from ..frames import Pose, matmul, matvec, rotate_inertia
+from ..properties import ErrorBounds, MassProperties, unit_factor
+from .model import Scene
 
-__all__ = ["Part", "Placements", "Frame", "ReportRequest", "Scene", "SceneResult", "load_scene", "compute_scene",
-           "combine_parts"]
+__all__ = ["SceneResult", "load_scene", "compute_scene", "combine_parts"]
 
-_U = 2.0 ** -53
 SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf")
-DEFAULT_QUANTITIES = frozenset(q for q in QUANTITIES if q != "principal")
-
-
-@dataclass(frozen=True, eq=False)
-class Placements:
-    """Many poses of one part, held as arrays (no per-instance objects).
-
-    Attributes
-    ----------
-    rotation : ndarray, shape (n, 3, 3)
-        ``A_k``: proper rotations, instance ``k`` at ``x = A_k x' + t_k``.
-    translation : ndarray, shape (n, 3)
-        ``t_k``, mesh units.
-    names : tuple of str or None
-        The instances' names; None names them ``PART[k]``, ``k`` from 0.
-    """
-
-    rotation: np.ndarray
-    translation: np.ndarray
-    names: tuple | None = None
-
-    def __len__(self):
-        return int(self.translation.shape[0])
-
-
-@dataclass(frozen=True, eq=False)
-class Part:
-    """One placed solid, or (with ``placements``) the same solid placed many times.
-
-    Attributes
-    ----------
-    name : str
-    mesh : str
-        Key of its mesh in :attr:`Scene.meshes` (a file path for TOML scenes).
-    pose : Pose
-        ``x = A x'' + t`` for points ``x''`` of the stretched mesh (the mesh itself if rigid).
-        Ignored when ``placements`` is given.
-    density, mass : float or None
-        At most one; density 1 when neither is given (``mass`` is per instance).
-    stretch : ndarray, shape (3, 3), or None
-        ``P`` of a non-rigid placement (local points ``x'' = P x'``); None when rigid.
-    density_field, density_map : str, dict of str to float, or None
-        Per-cell density of a volume mesh (see :func:`massprops.volume.cell_densities`).
-    placements : Placements or None
-        The instances' poses, when the part stands for many.
-    """
-
-    name: str
-    mesh: str
-    pose: Pose = field(default_factory=Pose)
-    density: float | None = None
-    mass: float | None = None
-    stretch: np.ndarray | None = None
-    density_field: str | None = None
-    density_map: dict | None = None
-    placements: Placements | None = None
-
-    @property
-    def count(self):
-        """Number of instances."""
-        return 1 if self.placements is None else len(self.placements)
-
-    def arrays(self):
-        """``(rotation (n, 3, 3), translation (n, 3))`` of every instance."""
-        if self.placements is None:
-            return self.pose.rotation[None], self.pose.translation[None]
-        return self.placements.rotation, self.placements.translation
-
-    def instance_names(self):
-        """The instances' names, in order."""
-        if self.placements is None:
-            return (self.name,)
-        return self.placements.names or tuple(f"{self.name}[{k}]" for k in range(self.count))
-
-    def instances(self):
-        """One rigid :class:`Part` per instance (built only for per-part output)."""
-        if self.placements is None:
-            return (self,)
-        rotation, translation = self.arrays()
-        return tuple(replace(self, name=name, pose=Pose(rotation[k], translation[k]), placements=None)
-                     for k, name in enumerate(self.instance_names()))
-
-
-@dataclass(frozen=True, eq=False)
-class Frame:
-    """A named frame; ``pose`` is relative to ``part``'s frame when given, else global."""
-
-    name: str
-    pose: Pose
-    part: str | None = None
-
-
-@dataclass(frozen=True)
-class ReportRequest:
-    """What a scene asks to be reported.
-
-    ``principal`` is a subset of ``{"total", "parts"}``; ``about`` names frames
-    or parts whose frames the inertia is also expressed in (when "inertia" is
-    among the quantities); ``unit`` is the meshes' length unit (outputs then SI).
-    """
-
-    parts: bool = True
-    total: bool = True
-    quantities: frozenset = DEFAULT_QUANTITIES
-    principal: frozenset = frozenset({"total"})
-    about: tuple = ()
-    unit: str | None = None
-
-    def wanted(self, scope):
-        """Quantities to report for ``scope`` ("parts" or "total")."""
-        return set(self.quantities) | ({"principal"} if scope in self.principal else set())
-
-    @property
-    def order(self):
-        """Highest moment the request needs (0 volume/mass, 1 COM, 2 inertia)."""
-        needed = set(self.quantities) | ({"principal"} if self.principal else set())
-        return order_for(needed)
-
-
-@dataclass(frozen=True, eq=False)
-class Scene:
-    """Parts, frames and the report request; ``meshes`` maps a mesh key to a path or a TriangleMesh."""
-
-    path: str
-    parts: tuple
-    frames: dict = field(default_factory=dict)
-    report: ReportRequest = field(default_factory=ReportRequest)
-    meshes: dict = field(default_factory=dict)
-
-    def placed_parts(self):
-        """Every instance as its own rigid :class:`Part`, in order."""
-        return tuple(one for part in self.parts for one in part.instances())
-
-    def part_pose(self, name):
-        """The pose of the part or instance called ``name`` (KeyError if none)."""
-        for part in self.parts:
-            if part.name == name and part.placements is None:
-                return part.pose
-        for part in self.parts:
-            if part.placements is not None and name in part.instance_names():
-                rotation, translation = part.arrays()
-                k = part.instance_names().index(name)
-                return Pose(rotation[k], translation[k])
-        raise KeyError(name)
-
-    def frame_poses(self, length=1.0):
-        """Global pose of every named frame, and of every part named in ``report.about``, by name.
-
-        ``length`` converts the scene's positions (mesh units) to the output unit.
-        """
-        poses = {name: _scaled(self.part_pose(name), length) for name in self.report.about
-                 if name not in self.frames}
-        for frame in self.frames.values():
-            pose = _scaled(frame.pose, length)
-            poses[frame.name] = _scaled(self.part_pose(frame.part), length).compose(pose) if frame.part else pose
-        return poses
-
-
-def _scaled(pose, length):
-    return pose if length == 1.0 else Pose(pose.rotation, pose.translation * length)
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,10 +75,10 @@ def load_scene(path, *, density=None, unit=None):
     if not os.path.isfile(path):
         raise MeshReadError("no such scene file", path=path, fix="check the path")
     if path.lower().endswith(SCENE_EXTENSIONS):
-        from .scene_graph import graph_scene
+        from .graph import graph_scene
         scene = graph_scene(path, density)
     elif path.lower().endswith(".toml"):
-        from .scene_toml import toml_scene
+        from .toml_file import toml_scene
         scene = toml_scene(path, density)
     else:
         raise MeshFormatError("unknown scene format", path=path,
@@ -293,8 +133,8 @@ def _integrate_meshes(scene, order, repair):
     A volume mesh is only read here: its integrals depend on the part's cell
     densities, so :func:`_local_properties` forms them.
     """
-    from .io import read
-    from .mesh import TriangleMesh
+    from ..io import read
+    from ..mesh.surface import TriangleMesh
     records = {}
     for part in scene.parts:
         if part.mesh in records:
@@ -331,7 +171,7 @@ def _local_properties(part, records, unit, wanted, repair):
     record = records[part.mesh]
     with _naming(part, record.key):
         if record.moments is None or part.density_field is not None or part.density_map is not None:
-            from .compute import mass_properties
+            from ..compute import mass_properties
             result = mass_properties(record.mesh, density=part.density, mass=part.mass, unit=unit,
                                      repair=repair, only=wanted, density_field=part.density_field,
                                      density_map=part.density_map)
@@ -340,7 +180,7 @@ def _local_properties(part, records, unit, wanted, repair):
             return result.properties
         moments = record.moments
         if part.stretch is not None:
-            from .scene_graph import stretched_area2, stretched_moments
+            from .graph import stretched_area2, stretched_moments
             moments = stretched_moments(moments, part.stretch)
             moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
                               if "surface_area" in wanted else 0.0)
@@ -401,13 +241,13 @@ def _combine(local, index, rotation, translation, unit):
 
 
 def _combine_moments(local, index, rotation, translation, mass, err_mass_i, total_mass, gamma, error):
-    position = np.einsum("nij,nj->ni", rotation, np.array([p.center_of_mass for p in local])[index]) + translation
+    position = matvec(rotation, np.array([p.center_of_mass for p in local])[index]) + translation
     base = position[int(np.argmax(mass))]
     com = base + _pairwise_sum((position - base) * mass[:, None]) / total_mass
     rho = position - com
     reach = np.abs(rho).max(axis=1)
     # Rotations are orthonormal only to rounding; their defect scales what they carry.
-    defect = np.abs(rotation @ rotation.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+    defect = np.abs(matmul(rotation, rotation.transpose(0, 2, 1)) - np.eye(3)).max(axis=(1, 2))
     err_position = np.array([p.error.center_of_mass for p in local])[index] * (1.8 + defect) + 4 * _U * (
         np.abs(position).max(axis=1))
     err_com = float(mass @ err_position + err_mass_i @ reach) / (total_mass - error["mass"]) * 1.01 + gamma * float(
@@ -416,7 +256,7 @@ def _combine_moments(local, index, rotation, translation, mass, err_mass_i, tota
     if local[0].inertia_com is None:
         return com, None, error
     local_inertia = np.array([p.inertia_com for p in local])
-    terms = rotation @ local_inertia[index] @ rotation.transpose(0, 2, 1) - mass[:, None, None] * (
+    terms = rotate_inertia(local_inertia[index], rotation) - mass[:, None, None] * (
         rho[:, :, None] * rho[:, None, :])
     terms[:, range(3), range(3)] += (mass * np.einsum("ni,ni->n", rho, rho))[:, None]
     inertia = _pairwise_sum(terms.reshape(-1, 9)).reshape(3, 3)

@@ -1,12 +1,12 @@
 """Analytic reference solids as exact triangle meshes.
 
-Builders return :class:`massprops.mesh.TriangleMesh` objects wound outward
+Builders return :class:`massprops.mesh.surface.TriangleMesh` objects wound outward
 (right-hand normals point out of the solid).  Trigonometric coordinates are
 computed with Python's ``math`` one value at a time, and vertices are placed
 with element-wise arithmetic only, so the same call gives the same bits on any
 machine: the reference files that ``massprops solids`` writes are
 reproducible byte for byte.  Their closed-form values are in
-:mod:`massprops.analytic`.
+:mod:`massprops.validation.analytic`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .mesh import TriangleMesh
+from ..mesh.surface import TriangleMesh
 
 __all__ = ["box", "cube", "prism", "regular_prism", "l_bracket", "tetrahedron", "regular_tetrahedron",
            "octahedron", "icosahedron", "icosphere", "hollow_sphere", "combine", "revolve", "cone",
@@ -160,7 +160,7 @@ def revolve(profile, n, *, closed=False):
     n : int
         Sections around the axis; the rings' vertices all sit at the angles
         2πi/n, so every side quad is a planar trapezoid and each cross-section
-        is a regular n-gon (the closed forms of :mod:`massprops.analytic` rely
+        is a regular n-gon (the closed forms of :mod:`massprops.validation.analytic` rely
         on both).
     """
     profile = np.asarray(profile, dtype=float)

@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from ..frames import axis_angle_quat, quat_multiply, quat_to_matrix
+
 __all__ = ["integrate_split"]
 
 
@@ -89,7 +91,6 @@ def _merge(plan):
 
 def _casimir_turn(q, m0, quat0, angle_per_momentum):
     """Apply the Casimir flow: turn by ``|m|·t/I₂`` about the fixed world ``H``."""
-    from .dynamics import quat_multiply, quat_to_matrix, axis_angle_quat
     size = float(np.linalg.norm(m0))
     if size == 0.0:
         return q

@@ -24,6 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..frames import axis_angle_quat, quat_conjugate, quat_from_matrix, quat_multiply
+from .body import RigidBody, trajectory_from_principal
+
 __all__ = ["jacobi", "Polhode", "polhode", "torque_free", "period"]
 
 _GAUSS_NODES = 16
@@ -183,7 +186,7 @@ def period(moments, omega):
 
 
 def torque_free(inertia, omega, times, *, attitude=None):
-    """The exact torque-free motion sampled at ``times``, as a :class:`~massprops.dynamics.Trajectory`.
+    """The exact torque-free motion sampled at ``times``, as a :class:`~massprops.dynamics.body.Trajectory`.
 
     Parameters
     ----------
@@ -196,7 +199,6 @@ def torque_free(inertia, omega, times, *, attitude=None):
     attitude : array_like, shape (3, 3), optional
         Initial ``A`` (body to world).
     """
-    from .dynamics import RigidBody, quat_from_matrix, quat_multiply, trajectory_from_principal
     body = RigidBody.from_inertia(inertia)
     times = np.asarray(times, dtype=float)
     motion = polhode(body.moments, body.to_principal(omega))
@@ -220,7 +222,6 @@ def _reference(h, k):
 
 
 def _attitude(motion, omega_p, times, quat0):
-    from .dynamics import quat_from_matrix, quat_multiply, axis_angle_quat, quat_conjugate
     moments = motion.moments
     if not np.any(motion.omega0):
         return np.broadcast_to(quat0, (len(times), 4)).copy()

@@ -4,7 +4,7 @@ Two kinds of values live here:
 
 * **smooth**: the ideal solid (sphere, cylinder, torus, ...), from the
   textbook formulas;
-* **polyhedral**: the ideal tessellation that :mod:`massprops.solids` builds,
+* **polyhedral**: the ideal tessellation that :mod:`massprops.validation.solids` builds,
   before its coordinates are rounded to floats.  A solid of revolution with
   ``n`` sections has regular n-gon cross-sections; a regular n-gon of
   circumradius ρ has area ``k_n π ρ²`` and polar moment
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frames import parallel_axis, rotate_inertia
+from ..frames import parallel_axis, rotate_inertia
 
 __all__ = ["Analytic", "box_values", "sphere_values", "hollow_sphere_values", "cylinder_values", "cone_values",
            "torus_values", "ellipsoid_values", "regular_tetrahedron_values", "octahedron_values",
@@ -131,7 +131,7 @@ def icosahedron_values(half_edge=1.0):
 
 
 def l_bracket_values(long=3.0, short=1.0, height=1.0):
-    """The L of :func:`massprops.solids.l_bracket` as two boxes."""
+    """The L of :func:`massprops.validation.solids.l_bracket` as two boxes."""
     leg_x = box_values((long, short, height), (long / 2, short / 2, height / 2))
     leg_y = box_values((short, long - short, height), (short / 2, (long + short) / 2, height / 2))
     return Analytic.union(leg_x, leg_y)
@@ -161,7 +161,7 @@ def _profile_integral(profile, closed, a, b):
 
 
 def revolved_values(profile, n=None, *, closed=False):
-    """Values of :func:`massprops.solids.revolve` (profile, n) in closed form.
+    """Values of :func:`massprops.validation.solids.revolve` (profile, n) in closed form.
 
     Parameters
     ----------

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import TriangleMesh, distinct_faces
+from .surface import TriangleMesh, distinct_faces
 
 __all__ = ["repair_mesh"]
 

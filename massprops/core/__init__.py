@@ -1,0 +1,2 @@
+"""The kernel: grouping equal keys (welding), edge matching and shells, and the
+signed-tetrahedron integrals with their certified error bounds."""
