@@ -71,7 +71,7 @@ def _analyze_all(models, settings, jobs):
     if len(models) <= 1 or jobs == 1:
         return [analyze(m, settings) for m in models]
     from concurrent.futures import ProcessPoolExecutor
-    from ..batch import default_jobs
+    from ..batch.run import default_jobs
     workers = min(jobs or default_jobs(), len(models))
     with ProcessPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(analyze, models, [settings] * len(models)))

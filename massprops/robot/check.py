@@ -42,6 +42,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..core.rounding import U as _U
 from ..frames import Pose
 from .model import ELEMENTS, tensor_from_elements
 
@@ -49,7 +50,6 @@ __all__ = ["Tolerances", "Validity", "declared_validity", "Comparison", "compare
 
 DIAGNOSES = ("product_sign", "about_link_origin", "rpy_inverted", "units", "missing_scale", "transcription",
              "triangle_inequality", "not_positive_definite")
-_U = 2.0 ** -53
 _UNIT_FACTORS = {1e6: "the tensor in kg·mm² (×1e6)", 1e4: "the tensor in kg·cm² (×1e4)",
                  1e3: "a factor 1e3 (g for kg, or a length scale applied once instead of squared)",
                  1e9: "the tensor in g·mm² (×1e9)", 1e7: "the tensor in g·cm² (×1e7)",

@@ -158,7 +158,7 @@ def _posed(values, xyz, rpy):
 
 
 def _mesh_values(path):
-    from ..exact import exact_properties
+    from ..validation.exact import exact_properties
     from ..io import read
     mesh = read(path)
     exact = exact_properties(mesh.vertices[mesh.faces])
@@ -302,7 +302,7 @@ def _r(value):
 
 
 def _write_meshes(folder):
-    from .. import solids
+    from ..validation import solids
     from ..io import obj, stl
     os.makedirs(folder, exist_ok=True)
     bracket = solids.l_bracket()

@@ -37,6 +37,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..core.rounding import U as _U
 from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError
 from ..properties import ErrorBounds, MassProperties
 from .model import PRIMITIVES
@@ -44,7 +45,6 @@ from .model import PRIMITIVES
 __all__ = ["NO_VOLUME", "GeometryResult", "geometry_properties", "primitive_properties", "primitive_bounds", "OnOpen",
            "parse_on_open", "clear_cache"]
 
-_U = 2.0 ** -53
 NO_VOLUME = ("plane", "heightfield", "heightmap", "polyline", "image", "empty")
 _PI_BOUND = 2.01 * _U          # a rational part rounded, times math.pi, rounded: within 2u (and π's own error)
 _BOX_BOUND = 1.01 * _U         # one rounding
@@ -256,7 +256,7 @@ def _vertex_bounds(vertices, scale, pose, stretch=None):
 
 def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
     """A mesh geometry's properties (placed at its pose) and box; ``(props, bounds, triangles, warnings, checks)``."""
-    from ..scene_graph import stretched_area2, stretched_moments
+    from ..scene.graph import stretched_area2, stretched_moments
     scale = geometry.scale or (1, 1, 1)
     if any(float(s) == 0 or not math.isfinite(float(s)) for s in scale):
         raise MassPropsError(f"{geometry.where}: mesh scale {tuple(map(float, scale))} has a zero or non-finite "

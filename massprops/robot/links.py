@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..core.rounding import U as _U
 from ..errors import MassPropsError
 from ..scene import combine_parts
 from .geometry import OnOpen, geometry_properties
@@ -32,7 +33,6 @@ from .geometry import OnOpen, geometry_properties
 __all__ = ["MassSettings", "LinkProps", "link_properties", "scaled_to_mass", "DEFAULT_DENSITY"]
 
 DEFAULT_DENSITY = 1000.0
-_U = 2.0 ** -53
 
 
 @dataclass(frozen=True)

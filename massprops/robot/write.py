@@ -26,6 +26,7 @@ from fnmatch import fnmatchcase
 
 import numpy as np
 
+from ..core.rounding import U as _U
 from ..errors import MassPropsError, OptionError
 from .check import declared_validity
 from .model import Decimal, Inertial, rotation_rpy
@@ -33,7 +34,6 @@ from .model import Decimal, Inertial, rotation_rpy
 __all__ = ["WriteResult", "write_inertials", "FRAMES", "nudged"]
 
 FRAMES = ("link", "principal")
-_U = 2.0 ** -53
 _MARGIN_ULPS = 8
 
 
