@@ -17,20 +17,10 @@ import math
 import numpy as np
 
 from ..errors import OptionError
-from ..frames import Pose
+from ..frames import Pose, axis_angle_quat, quat_to_matrix
 from ..scene import combine_parts
 
-__all__ = ["parse_joint_values", "link_poses", "robot_total", "axis_rotation"]
-
-
-def axis_rotation(axis, angle):
-    """Rotation by ``angle`` (radians) about the unit ``axis`` (Rodrigues)."""
-    x, y, z = axis
-    c, s = math.cos(angle), math.sin(angle)
-    t = 1 - c
-    return np.array([[c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-                     [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-                     [z * x * t - y * s, z * y * t + x * s, c + z * z * t]])
+__all__ = ["parse_joint_values", "link_poses", "robot_total"]
 
 
 def parse_joint_values(text, model):
@@ -62,7 +52,7 @@ def parse_joint_values(text, model):
 def _motion(joint, value):
     offset = value - joint.reference
     if joint.rotates:
-        rotation = axis_rotation(joint.axis, offset)
+        rotation = quat_to_matrix(axis_angle_quat(joint.axis, offset))
         return Pose(rotation, joint.point - rotation @ joint.point)
     return Pose(np.eye(3), joint.axis * offset)
 

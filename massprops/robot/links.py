@@ -149,6 +149,9 @@ def link_properties(model, link, settings, resolver):
     if not results:
         return LinkProps(None, tuple(infos), tuple(warnings))
     total = combine_parts([props for _, props, _ in results])
+    densities = {props.density for _, props, _ in results}
+    if len(densities) == 1:
+        total = replace(total, density=densities.pop())      # one material: its density, not mass / volume
     mass_source = "density"
     link_mass = settings.config.link_mass(link.name) if settings.config is not None else None
     declared = link.declared
@@ -162,9 +165,9 @@ def link_properties(model, link, settings, resolver):
         warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
                         "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
     if mass_source != "density":
+        ratio = total.mass / sum(i["mass"] for i in infos if i.get("included"))
         for info in infos:
             if info.get("included"):
-                ratio = total.mass / sum(i["mass"] for i in infos if i.get("included"))
                 info["mass"] *= ratio
                 info["density"] *= ratio
                 info["density_source"] = mass_source

@@ -31,7 +31,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..errors import OptionError
-from ..frames import Pose, quaternion_matrices
+from ..frames import Pose, quat_to_matrix
 from .model import Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, tensor_from_elements
 from .xmlspans import parse_with_spans
 
@@ -57,7 +57,7 @@ def _name(element, kind, index):
 
 
 def _quat(q):
-    return quaternion_matrices(np.asarray(q, dtype=float)[None])[0]
+    return quat_to_matrix(np.asarray(q, dtype=float))
 
 
 def _mesh_folder(spec, path):

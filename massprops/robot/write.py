@@ -1,8 +1,7 @@
 """Write ``<inertial>`` elements computed from the geometry, changing no other byte of the file.
 
 Only the bytes of each selected link's ``<inertial>`` element are replaced
-(or a new one inserted right after the link's start tag; a self-closing
-``<link .../>`` is opened for it).  The frame written is, by default, the
+(or a new one inserted right after the link's start tag).  The frame written is, by default, the
 center of mass with no rotation and the full tensor in link axes (importers
 often mishandle the inertial frame's rotation); ``frame="principal"`` writes
 the principal moments with the rotation of the principal axes.  Numbers are
@@ -155,16 +154,9 @@ def _edit(model, link, text_for, data, newline):
     if link.span is None:
         raise MassPropsError(f"link {link.name!r} is not in this file's bytes (an included file?)",
                              fix="write the file that defines it")
-    own = _indentation(data, link.span[0])
-    indent = own + unit
-    start, content = link.span[0], link.insert_at
-    if content == link.span[1]:                      # <link name="x"/>: open it
-        tag = data[start:content]
-        opened = tag[:tag.rindex(b"/")].rstrip() + b">"
-        name = tag[1:].split()[0].rstrip(b"/>")
-        new = opened + (newline + indent + text_for(indent, unit) + newline + own).encode("utf-8") \
-            + b"</" + name + b">"
-        return start, link.span[1], new
+    # A link with geometry has children, so its start tag is never self-closing: insert after it.
+    indent = _indentation(data, link.span[0]) + unit
+    content = link.insert_at
     return content, content, (newline + indent + text_for(indent, unit)).encode("utf-8")
 
 
