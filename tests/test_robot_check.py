@@ -108,3 +108,18 @@ def test_no_nudge_when_there_is_room():
     tensor = np.diag([0.2, 0.3, 0.4])
     written, delta = nudged(tensor, 0.0)
     assert delta == 0.0 and np.array_equal(written, tensor)
+
+
+@pytest.mark.parametrize("written,expected,how", [
+    (-0.0123, 0.0123, "sign"), (0.123, 0.0123, "decimal point"), (0.00123, 0.0123, "decimal point"),
+    (0.0153, 0.0123, "one digit"), (0.0132, 0.0123, "swapped"), (0.0, 0.0123, None), (0.0456, 0.0123, None),
+    (0.0124, 0.0123, "one digit")])
+def test_what_counts_as_a_typo(written, expected, how):
+    from massprops.robot.check import mistyped
+    found = mistyped(written, expected, 0.02)
+    assert (found is None) if how is None else (how in found)
+
+
+def test_a_value_written_with_one_digit_is_no_typo():
+    from massprops.robot.check import mistyped
+    assert mistyped(-0.03, -0.02, 0.02) is None

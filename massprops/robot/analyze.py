@@ -119,7 +119,11 @@ def _analyzed(prepared, settings, start):
         links.append(entry)
         if computed is not None and computed.props is not None:
             placed.append((computed.props, poses[link.name]))
-    total = _total(placed, links)
+    broken = model.extra.get("broken_joints")
+    if broken:
+        warnings.append(f"no total: joint(s) {', '.join(map(repr, broken))} could not be read, so links are not "
+                        "placed")
+    total = None if broken else _total(placed, links)
     statuses = {s: sum(1 for link in links if link["status"] == s) for s in STATUSES}
     return {"model": model.path, "format": model.format, "name": model.name, "geometry": settings.geometry,
             "mass_policy": settings.policy, "status": "ok", "frame": model.frame,

@@ -114,7 +114,8 @@ def declared_validity(inertial, *, massless_allowed, massless_reason=""):
     if not all(math.isfinite(v) for v in numbers):
         return Validity(("a number is not finite (NaN or infinity)",))
     tensor = tensor_from_elements({k: v.value for k, v in written.items()})
-    if mass == 0 and not np.any(tensor):
+    if mass == 0:
+        # A frame link or a fixed base: simulators ignore its tensor (pybullet: mass 0 is static).
         if massless_allowed:
             return Validity(massless=True)
         return Validity(("mass 0 on a link that has geometry and moves — label it massless (--massless GLOB) "
@@ -124,9 +125,11 @@ def declared_validity(inertial, *, massless_allowed, massless_reason=""):
     problems, diagnoses, details = [], [], []
     moments = np.linalg.eigvalsh(tensor)
     reach_j, reach_c = _rounding_reach(_half_units(written))
-    solver = 16 * _U * float(np.abs(tensor).max())
+    # A diagonal tensor's eigenvalues are its entries, exactly; otherwise allow the eigen-solver its rounding.
+    diagonal = not np.any(tensor - np.diag(np.diag(tensor)))
+    solver = 0.0 if diagonal else 16 * _U * float(np.abs(tensor).max())
     if moments[0] <= 0:
-        real = moments[0] + reach_j + solver < 0
+        real = moments[0] + reach_j + solver <= 0
         problems.append(f"not positive definite: smallest principal moment {moments[0]:.6g}")
         diagnoses.append("not_positive_definite")
         details.append({"name": "not_positive_definite", "smallest_moment": float(moments[0]),
@@ -134,8 +137,14 @@ def declared_validity(inertial, *, massless_allowed, massless_reason=""):
                         "message": _certified_text(real, reach_j)})
     a, b, c = moments
     if a + b < c:
-        central = np.linalg.eigvalsh(0.5 * np.trace(tensor) * np.eye(3) - tensor)[0]
-        real = central + reach_c + solver < 0
+        if diagonal:
+            # Exactly: the smallest A + B − C of the written values, against the digits' half-units.
+            entries = [Fraction(float(x)) for x in np.diag(tensor)]
+            slack = min(sum(entries) - 2 * e for e in entries)
+            real = slack + sum(_half_units(written)[k][k] for k in range(3)) < 0
+        else:
+            central = np.linalg.eigvalsh(0.5 * np.trace(tensor) * np.eye(3) - tensor)[0]
+            real = central + reach_c + solver < 0
         problems.append(f"principal moments violate A + B >= C: {a:.9g} + {b:.9g} < {c:.9g} "
                         f"(by {c - a - b:.3g})")
         diagnoses.append("triangle_inequality")
@@ -225,8 +234,44 @@ def _tensor_candidates(inertial, props):
         yield "units", computed * factor, f"{what}: divide by {factor:g}"
 
 
+def _leading_digits(value, count=3):
+    """The first ``count`` significant digits of ``|value|`` and its decimal exponent."""
+    text = f"{abs(value):.{count - 1}e}"
+    mantissa, _, exponent = text.partition("e")
+    return mantissa.replace(".", ""), int(exponent)
+
+
+def _significant(value):
+    """Significant digits of a float's shortest decimal form."""
+    mantissa = repr(abs(float(value))).partition("e")[0].replace(".", "").lstrip("0")
+    return len(mantissa.rstrip("0")) or 1
+
+
+def mistyped(written, expected, tolerance):
+    """How ``written`` looks like a mistyped ``expected``, or None: a wrong sign, a slipped decimal point, one
+    digit wrong or two neighbours swapped in the leading three.  A written 0 is an omission, not a typo."""
+    if written == 0 or expected == 0:
+        return None
+    if abs(written + expected) <= tolerance * abs(expected):
+        return "its sign is wrong"
+    ratio = abs(written / expected)
+    power = round(math.log10(ratio))
+    if power and abs(ratio / 10.0 ** power - 1) <= tolerance:
+        return f"its decimal point has slipped by {power:+d} place(s)"
+    (a, ea), (b, eb) = _leading_digits(written), _leading_digits(expected)
+    if ea != eb or (written > 0) != (expected > 0) or _significant(written) < 3:
+        return None         # a value written with one or two digits is a guess, not a transcription
+    differ = [k for k in range(len(a)) if a[k] != b[k]]
+    if len(differ) == 1:
+        return "one digit is wrong"
+    if len(differ) == 2 and differ[1] == differ[0] + 1 and a[differ[0]] == b[differ[1]] \
+            and a[differ[1]] == b[differ[0]]:
+        return "two digits are swapped"
+    return None
+
+
 def _transcription(inertial, props, tolerance):
-    """One written element wrong (or two swapped) while the others agree, in the written axes."""
+    """One written element mistyped (or two elements swapped) while the others agree, in the written axes."""
     rotation = inertial.rotation
     expected = rotation.T @ props.inertia_com @ rotation
     scale = float(np.abs(expected).max())
@@ -237,9 +282,12 @@ def _transcription(inertial, props, tolerance):
     if len(wrong) == 1:
         name = wrong[0]
         i, j = index[name]
+        how = mistyped(written[name], expected[i, j], tolerance)
+        if how is None:
+            return None
         return _Finding("transcription", max(off[n] for n in ELEMENTS if n != name),
                         f"{name} = {inertial.written[name].text} but the geometry gives {expected[i, j]:.6g} "
-                        "while the other elements agree: a typing error?", {"elements": [name]})
+                        f"while the other elements agree: {how}", {"elements": [name]})
     if len(wrong) == 2:
         a, b = wrong
         (ia, ja), (ib, jb) = index[a], index[b]
@@ -251,15 +299,19 @@ def _transcription(inertial, props, tolerance):
 
 def _com_findings(inertial, props, size, tolerance):
     declared, computed = inertial.center_of_mass, props.center_of_mass
-    reach = max(size, float(np.abs(computed).max()), 1e-300)
+    if not np.any(declared) or not np.any(computed):
+        return
     for factor, unit in _LENGTH_FACTORS.items():
-        if float(np.abs(declared - factor * computed).max()) <= tolerance * reach * factor:
+        if float(np.abs(declared - factor * computed).max()) <= tolerance * float(np.abs(declared).max()):
             yield _Finding("units", 0.0, f"the center of mass looks like it is in {unit} (×{factor:g})")
+    reach = max(size, float(np.abs(computed).max()), 1e-300)
     wrong = [k for k in range(3) if abs(declared[k] - computed[k]) > tolerance * reach]
     if len(wrong) == 1:
-        axis = "xyz"[wrong[0]]
-        yield _Finding("transcription", 0.0, f"the center of mass's {axis} = {declared[wrong[0]]:.6g} but the "
-                                              f"geometry gives {computed[wrong[0]]:.6g}, the others agree")
+        k = wrong[0]
+        how = mistyped(declared[k], computed[k], tolerance)
+        if how is not None:
+            yield _Finding("transcription", 0.0, f"the center of mass's {'xyz'[k]} = {declared[k]:.6g} but the "
+                                                  f"geometry gives {computed[k]:.6g}, the others agree: {how}")
 
 
 def diagnose(inertial, props, comparison, tolerances, *, rescaled=None):

@@ -301,21 +301,26 @@ def _r(value):
     return "0" if value == 0 else repr(value)
 
 
-def _write_meshes(folder):
+def _write_meshes(folder, used):
     from ..validation import solids
     from ..io import obj, stl
     os.makedirs(folder, exist_ok=True)
-    bracket = solids.l_bracket()
-    obj.write(os.path.join(folder, _BRACKET), bracket.vertices * float(_EIGHTH), bracket.faces,
-              comment="massprops reference L-bracket at 1/16 scale (metres)")
-    obj.write(os.path.join(folder, _BRACKET_MM), bracket.vertices * float(_EIGHTH * 1000), bracket.faces,
-              comment="the same L-bracket in millimetres")
-    box = solids.box((0.05, 0.05, 0.05))
-    obj.write(os.path.join(folder, _OPEN), box.vertices, box.faces[:-1], comment="a box with one face missing")
-    prism = solids.regular_prism(8, 0.03, 0.04)
-    stl.write_binary(os.path.join(folder, _PRISM), prism.triangles.astype(np.float32),
-                     header=b"massprops octagonal prism")
-    return {name: os.path.join(folder, name) for name in (_BRACKET, _BRACKET_MM, _OPEN, _PRISM)}
+    bracket, box, prism = solids.l_bracket(), solids.box((0.05, 0.05, 0.05)), solids.regular_prism(8, 0.03, 0.04)
+    writers = {
+        _BRACKET: lambda path: obj.write(path, bracket.vertices * float(_EIGHTH), bracket.faces,
+                                         comment="massprops reference L-bracket at 1/16 scale (metres)"),
+        _BRACKET_MM: lambda path: obj.write(path, bracket.vertices * float(_EIGHTH * 1000), bracket.faces,
+                                            comment="the same L-bracket in millimetres"),
+        # 11 of the box's 12 triangles: open.
+        _OPEN: lambda path: obj.write(path, box.vertices, box.faces[:-1], comment="a box with one triangle missing"),
+        _PRISM: lambda path: stl.write_binary(path, prism.triangles.astype(np.float32),
+                                              header=b"massprops octagonal prism"),
+    }
+    paths = {}
+    for name in sorted(used):
+        paths[name] = os.path.join(folder, name)
+        writers[name](paths[name])
+    return paths
 
 
 # -- writers per format ---------------------------------------------------------------
@@ -503,8 +508,16 @@ def _mjcf_body_inside(spec, declared, geometry_only, indent):
     return lines
 
 
-def write_robots(directory, *, formats=("urdf", "sdf", "mjcf")):
+SAMPLE_LINKS = ("base_link", "bracket", "multi", "tool0", "sensor", "flipped", "thin_plate")
+
+
+def write_robots(directory, *, formats=("urdf", "sdf", "mjcf"), links=None):
     """Write the fixture robots (a ROS package ``massprops_robot``) and ``expected.json`` into ``directory``.
+
+    Parameters
+    ----------
+    links : sequence of str, optional
+        Only these links (all by default).
 
     Returns
     -------
@@ -513,19 +526,22 @@ def write_robots(directory, *, formats=("urdf", "sdf", "mjcf")):
     """
     directory = os.fspath(directory)
     package = os.path.join(directory, PACKAGE)
-    meshes = _write_meshes(os.path.join(package, "meshes"))
+    chosen = {fmt: [s for s in _specs(fmt) if links is None or s.name in links] for fmt in formats}
+    used = {shape.mesh for specs in chosen.values() for spec in specs for shape in spec.shapes if shape.mesh}
+    meshes = _write_meshes(os.path.join(package, "meshes"), used)
     with open(os.path.join(package, "package.xml"), "w", encoding="utf-8") as handle:
         handle.write(f'<?xml version="1.0"?>\n<package format="3">\n  <name>{PACKAGE}</name>\n  <version>0.1.0'
                      "</version>\n  <description>massprops robot fixtures</description>\n"
                      "  <maintainer email=\"massprops@example.com\">massprops</maintainer>\n"
                      "  <license>MIT</license>\n</package>\n")
-    with open(os.path.join(package, "model.config"), "w", encoding="utf-8") as handle:
-        handle.write(f'<?xml version="1.0"?>\n<model>\n  <name>{PACKAGE}</name>\n  <sdf version="1.11">sdf/robot.sdf'
-                     "</sdf>\n</model>\n")
+    if "sdf" in formats:
+        with open(os.path.join(package, "model.config"), "w", encoding="utf-8") as handle:
+            handle.write(f'<?xml version="1.0"?>\n<model>\n  <name>{PACKAGE}</name>\n  <sdf version="1.11">'
+                         "sdf/robot.sdf</sdf>\n</model>\n")
     expected = {"density": DENSITY, "package": PACKAGE}
     writers = {"urdf": ("urdf/robot.urdf", _urdf), "sdf": ("sdf/robot.sdf", _sdf), "mjcf": ("mjcf/robot.xml", _mjcf)}
     for fmt in formats:
-        specs = _specs(fmt)
+        specs = chosen[fmt]
         exact = {s.name: exact_link(s.shapes, meshes) for s in specs if s.shapes and s.computes}
         declared = {}
         for spec in specs:
@@ -570,5 +586,6 @@ def _diagnoses(spec, fmt):
 
 
 def write_sample(directory):
-    """The sample robot of ``sample_meshes/robot/``: the URDF package, without the other formats."""
-    return write_robots(directory, formats=("urdf",))
+    """The sample robot of ``sample_meshes/robot/``: a few links of the URDF package (clean ones, a frame link,
+    a missing inertial, a sign-flipped one, a thin plate written with too few digits)."""
+    return write_robots(directory, formats=("urdf",), links=SAMPLE_LINKS)

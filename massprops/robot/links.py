@@ -161,7 +161,7 @@ def link_properties(model, link, settings, resolver):
             and declared.mass.value > 0 and (_policy(link, settings) == "keep" or declared.auto):
         total = scaled_to_mass(total, declared.mass.value)
         mass_source = "declared mass (auto inertial)" if declared.auto else "declared mass (--mass-policy keep)"
-    elif defaulted:
+    elif defaulted and not (declared is not None and declared.mass is not None and declared.mass.value == 0):
         warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
                         "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
     if mass_source != "density":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 
 from ..errors import MeshReadError
 from .model import RobotFormatError
@@ -13,22 +14,32 @@ FORMATS = {"robot": "urdf", "sdf": "sdf", "mujoco": "mjcf"}
 _XACRO_NS = "http://www.ros.org/wiki/xacro"
 
 
+_SKIPPED = re.compile(rb"<!--.*?-->|<\?.*?\?>|<!DOCTYPE[^>]*>", re.S)
+_ROOT = re.compile(rb"<([A-Za-z_][-\w:.]*)")
+
+
 def detect_format(path):
-    """``(format, needs_xacro)`` from the file's root element (and a ``.xacro`` name)."""
-    from lxml import etree
+    """``(format, needs_xacro)`` from the file's root element (and a ``.xacro`` name).
+
+    The root tag is read from the first bytes (comments, processing instructions
+    and the document type skipped), so a file lxml would refuse for its XML
+    declaration alone (``version="0.0"``) is still recognised.
+    """
     try:
-        for _, element in etree.iterparse(os.fspath(path), events=("start",), resolve_entities=False,
-                                          huge_tree=True):
-            tag = element.tag.rpartition("}")[2] if isinstance(element.tag, str) else ""
-            xacro = os.fspath(path).endswith(".xacro") or _XACRO_NS in (element.nsmap or {}).values()
-            if tag not in FORMATS:
-                raise RobotFormatError(f"the root element is <{tag}>: not a robot description", path=path,
-                                       fix="give a URDF (<robot>), SDF (<sdf>) or MJCF (<mujoco>) file")
-            return FORMATS[tag], xacro
-    except etree.XMLSyntaxError as exc:
-        raise RobotFormatError(f"not well-formed XML ({exc})", path=path,
-                               fix="fix the XML (`xmllint FILE` shows where)") from None
-    raise RobotFormatError("the file is empty", path=path)
+        with open(path, "rb") as handle:
+            head = handle.read(1 << 16)
+    except OSError as exc:
+        raise MeshReadError(f"cannot read the file ({exc.strerror or exc})", path=path) from None
+    match = _ROOT.search(_SKIPPED.sub(b"", head))
+    if match is None:
+        raise RobotFormatError("no XML element found", path=path,
+                               fix="give a URDF (<robot>), SDF (<sdf>) or MJCF (<mujoco>) file")
+    tag = match.group(1).decode("utf-8", "replace").rpartition(":")[2]
+    if tag not in FORMATS:
+        raise RobotFormatError(f"the root element is <{tag}>: not a robot description", path=path,
+                               fix="give a URDF (<robot>), SDF (<sdf>) or MJCF (<mujoco>) file")
+    xacro = os.fspath(path).endswith(".xacro") or _XACRO_NS.encode() in head
+    return FORMATS[tag], xacro
 
 
 def load_model(path, resolver, *, xacro_args=None):

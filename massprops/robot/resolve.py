@@ -132,8 +132,11 @@ class Resolver:
         return self._checked(uri, candidates, ancestor_name=name if scheme == "package" else None)
 
     def _checked(self, uri, candidates, ancestor_name=None):
-        tried = []
+        tried, seen = [], set()
         for path, by in candidates:
+            if path in seen:
+                continue
+            seen.add(path)
             tried.append(f"{path} ({by})")
             if os.path.isfile(path):
                 warning = (f"{uri}: resolved by the folder name {ancestor_name!r} above the model (no package.xml "

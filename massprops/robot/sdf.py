@@ -365,7 +365,8 @@ def read_sdf(path, resolver):
         link, said = _link(scope, element, owner, frames)
         links.append(link)
         warnings += said
-    links, joints = _joined(links, reader.joints, frames, path)
+    links, joints, loops = _joined(links, reader.joints, frames, path)
+    warnings += loops
     return RobotModel(os.fspath(path), "sdf", name or "", tuple(links), tuple(joints), data, tuple(warnings),
                       frame=frame, writable=None if spans is not None else "the file's elements could not be "
                                                                             "located byte by byte")
@@ -374,7 +375,7 @@ def read_sdf(path, resolver):
 def _joined(links, joint_elements, frames, path):
     """Joints from their elements, and each link's parent and pose in it (model-frame poses made relative)."""
     names = {link.name for link in links}
-    parents, joints = {}, []
+    parents, joints, loops = {}, [], []
     for scope, element, version in joint_elements:
         name = element.get("name")
         parent = scope + (element.findtext("parent") or "").strip() if (element.findtext("parent") or "").strip() \
@@ -388,10 +389,14 @@ def _joined(links, joint_elements, frames, path):
         point = child_pose.inverse().compose(frames.pose(scope + name)).translation
         axis = child_pose.rotation.T @ frames.pose(scope + name).rotation @ _axis(element, frames, scope, name,
                                                                                 child, path, version)
+        if parent is not None and child in parents:
+            # A kinematic loop (SDF allows them): the link keeps the pose the file gives it; this joint is not
+            # followed when the robot is posed.
+            loops.append(f"joint {scope + name!r} closes a kinematic loop (link {child!r} already has a parent): "
+                         "it is not followed for --joints")
+            continue
         joints.append(Joint(scope + name, kind, parent or "world", child, axis, point))
         if parent is not None:
-            if child in parents:
-                raise RobotFormatError(f"link {child!r} is the child of two joints", path=path)
             parents[child] = parent
     placed = []
     for link in links:
@@ -400,4 +405,4 @@ def _joined(links, joint_elements, frames, path):
         if parent is not None:
             pose = frames.pose(parent).inverse().compose(pose)
         placed.append(replace(link, parent=parent, pose_in_parent=pose))
-    return placed, joints
+    return placed, joints, loops

@@ -169,24 +169,30 @@ def read_urdf(path, *, data=None, writable=None, resolver=None):
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise RobotFormatError(f"link names are not unique: {', '.join(map(repr, duplicates))}", path=path)
-    joints, placed = [], {}
+    joints, placed, warnings, broken = [], {}, [], []
     for element in root.findall("joint"):
-        joint, pose = _joint(element, path)
-        for end in (joint.parent, joint.child):
-            if end not in names:
-                raise RobotFormatError(f"joint {joint.name!r} names link {end!r}, which does not exist", path=path)
-        if joint.child in placed:
-            raise RobotFormatError(f"link {joint.child!r} is the child of two joints", path=path)
+        # A joint that cannot be read leaves its child unplaced: the links are still checked, the total is not.
+        try:
+            joint, pose = _joint(element, path)
+            for end in (joint.parent, joint.child):
+                if end not in names:
+                    raise RobotFormatError(f"joint {joint.name!r} names link {end!r}, which does not exist")
+            if joint.child in placed:
+                raise RobotFormatError(f"link {joint.child!r} is the child of two joints")
+        except MassPropsError as exc:
+            broken.append(element.get("name"))
+            warnings.append(exc.problem)
+            continue
         placed[joint.child] = (joint.parent, pose)
         joints.append(joint)
     links = [_placed(link, placed) for link in links]
     roots = [link.name for link in links if link.parent is None]
-    warnings = []
-    if len(roots) != 1:
+    if len(roots) != 1 and not broken:
         warnings.append(f"{len(roots)} root links ({', '.join(roots[:5])}): the robot's total is given in the "
                         "model frame (the root links' frames at the origin)")
     return RobotModel(os.fspath(path), "urdf", root.get("name", ""), tuple(links), tuple(joints), data,
-                      tuple(warnings), frame=roots[0] if len(roots) == 1 else "model", writable=writable)
+                      tuple(warnings), frame=roots[0] if len(roots) == 1 else "model", writable=writable,
+                      extra={"broken_joints": broken} if broken else {})
 
 
 def _placed(link, placed):
@@ -201,23 +207,36 @@ def _placed(link, placed):
 
 @contextmanager
 def _find_through(resolver):
-    """xacro's ``$(find PKG)`` answered by massprops's resolver (not ament or rospkg)."""
+    """xacro's ``$(find PKG)`` and ``package://`` includes answered by massprops's resolver (not ament or rospkg)."""
     from xacro import substitution_args
     original = substitution_args._eval_find
 
     def find(package):
         folder = resolver.find_package(package)
         if folder is None:
-            raise MassPropsError(f"$(find {package}): package not found (tried: "
-                                 f"{'; '.join(resolver.resolve('package://' + package + '/').tried)})",
+            tried = resolver.log[(f"$(find {package})", None)].tried
+            raise MassPropsError(f"$(find {package}): package not found (tried: {'; '.join(tried) or 'nowhere'})",
                                  path=resolver.model_path, fix=f"give --package {package}=DIR")
         return folder
 
+    import xacro
+    original_include = xacro.abs_filename_spec
+
+    def include(filename_spec):
+        # <xacro:include filename="package://..."/>: through the same resolver as the meshes.
+        if "://" in filename_spec:
+            resolution = resolver.resolve(filename_spec)
+            if resolution.path is not None:
+                return resolution.path
+        return original_include(filename_spec)
+
     substitution_args._eval_find = find
+    xacro.abs_filename_spec = include
     try:
         yield
     finally:
         substitution_args._eval_find = original
+        xacro.abs_filename_spec = original_include
 
 
 def expand_xacro(path, resolver, mappings=None):

@@ -99,6 +99,26 @@ def _local(tag):
     return tag.rpartition("}")[2] if tag.startswith("{") else tag.rpartition(":")[2]
 
 
+_DECLARATION = re.compile(rb"<\?xml[^>]*\?>")
+_DECLARATION_PROBLEMS = ("Unsupported version", "XML declaration allowed only at the start")
+
+
+def _lenient(data, parser, path, exc):
+    """Parse again without the XML declaration when only it is at fault (``version="0.0"``, written by
+    some exporters and read by urdfdom and pybullet, or a declaration after a comment).  It is blanked out
+    with as many spaces, so every byte offset stays the file's."""
+    from lxml import etree
+    match = _DECLARATION.search(data)
+    if match and any(problem in str(exc) for problem in _DECLARATION_PROBLEMS):
+        blanked = data[:match.start()] + b" " * (match.end() - match.start()) + data[match.end():]
+        try:
+            return etree.fromstring(blanked, parser=parser, base_url=str(path))
+        except etree.XMLSyntaxError:
+            pass
+    raise RobotFormatError(f"not well-formed XML ({exc})", path=path,
+                           fix="fix the XML (an editor or `xmllint FILE` shows where)") from None
+
+
 def parse_with_spans(path, *, data=None):
     """Parse an XML file with lxml and pair each element with its :class:`Span`.
 
@@ -117,8 +137,7 @@ def parse_with_spans(path, *, data=None):
     try:
         root = etree.fromstring(data, parser=parser, base_url=str(path))
     except etree.XMLSyntaxError as exc:
-        raise RobotFormatError(f"not well-formed XML ({exc})", path=path,
-                               fix="fix the XML (an editor or `xmllint FILE` shows where)") from None
+        root = _lenient(data, parser, path, exc)
     elements = [e for e in root.getroottree().iter() if isinstance(e.tag, str)]
     try:
         spans = element_spans(data)
