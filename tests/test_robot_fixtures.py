@@ -247,3 +247,15 @@ def test_the_robot_total_at_zero_and_at_a_joint_value(plain_robots):
     difference = np.array(moved["total"]["center_of_mass"]) - zero["total"]["center_of_mass"]
     assert np.abs(difference - shift).max() <= bound
     assert np.abs(shift).max() > 100 * bound                 # the test can fail: the shift is well resolved
+
+
+def test_the_sample_robot_is_the_generator_output(tmp_path):
+    import filecmp
+    from massprops.robot.fixtures import write_sample
+    sample = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "robot")
+    write_sample(tmp_path)
+    names = sorted(os.path.relpath(os.path.join(d, n), tmp_path) for d, _, files in os.walk(tmp_path) for n in files)
+    ours = sorted(os.path.relpath(os.path.join(d, n), sample) for d, _, files in os.walk(sample) for n in files)
+    assert names == ours
+    match, mismatch, errors = filecmp.cmpfiles(tmp_path, sample, names, shallow=False)
+    assert mismatch == [] and errors == [], "regenerate with massprops.robot.fixtures.write_sample('sample_meshes/robot')"

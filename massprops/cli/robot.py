@@ -204,6 +204,8 @@ def write(model, output, in_place, links_glob, all_links, frame, **kwargs):
     for record in result.written:
         note = f"; {record['nudge_note']}" if record.get("nudge_note") else ""
         click.echo(f"wrote {record['link']} (was {record['before']}): mass {record['mass']:.9g} kg{note}")
+        for warning in record["warnings"]:
+            click.echo(f"  warning: {warning}")
     for record in result.skipped:
         click.echo(f"left {record['link']}: {record['reason']}")
     where = f"{target} (backup {model}.bak)" if in_place else target

@@ -205,15 +205,21 @@ def _link_entry(model, link, computed, error, prepared, settings, pose):
     return entry
 
 
+def _has_geometry(link, computed, settings):
+    """Geometry with volume (computed), or, with --declared-only, geometry elements in the file."""
+    if settings.declared_only:
+        return bool(link.chosen(settings.geometry))
+    return computed is not None and computed.props is not None
+
+
 def _massless_allowed(model, link, computed, prepared, settings):
     """Mass 0 is valid for a frame link (no geometry), a fixed base (a root), or a link labelled massless."""
     labelled = any(fnmatchcase(link.name, glob) for glob in settings.massless) or (
         prepared.config is not None and prepared.config.massless(link.name))
-    no_geometry = computed is None or computed.props is None
     fixed = link.parent is None or all(not j.moves for j in model.joints if j.child == link.name)
     if labelled:
         return True, "labelled massless"
-    if no_geometry and not settings.declared_only:
+    if not _has_geometry(link, computed, settings):
         return True, "a frame link (no geometry)"
     if fixed:
         return True, "attached by a fixed joint (or a fixed base)"
@@ -231,7 +237,7 @@ def _status(model, link, computed, error, prepared, settings):
         return "ok", "", [], [], None
     declared = link.declared
     if declared is None:
-        if not has_geometry and not settings.declared_only:
+        if not _has_geometry(link, computed, settings):
             return "massless", "no inertial and no geometry: a frame link", [], [], None
         return "missing", "no <inertial>" + ("" if model.format != "sdf" else
                                              " (sdformat would use mass 1 and a unit tensor)"), [], [], None
@@ -254,6 +260,8 @@ def _status(model, link, computed, error, prepared, settings):
             details += mismatch[3]
             message += " — " + "; ".join(f"{d['name']}: {d['message']}" for d in mismatch[3][:3])
         return "invalid", message, names, details, mismatch[4] if mismatch is not None else None
+    if mismatch is None and settings.declared_only:
+        return "ok", "valid (--declared-only: not compared with the geometry)", [], [], None
     if mismatch is None:
         return "no-geometry", "declared inertial is valid; no geometry to check it against", [], [], None
     return mismatch

@@ -129,7 +129,21 @@ class Resolver:
             return Resolution(uri, None, None, (f"unknown URI scheme {scheme!r}",))
         name, _, inner = rest.partition("/")
         candidates = [(os.path.join(folder, inner), by) for folder, by in self._package_folders(name, scheme)]
-        return self._checked(uri, candidates, ancestor_name=name if scheme == "package" else None)
+        found = self._checked(uri, candidates, ancestor_name=name if scheme == "package" else None)
+        if found.path is None:
+            return Resolution(uri, None, None, found.tried + self._searched(name, scheme))
+        return found
+
+    def _searched(self, name, scheme):
+        """What the rules looked at without finding ``name`` (for the message of a URI not found)."""
+        notes = [] if name in self.packages else [f"no --package {name}=DIR"]
+        variables = ROS_VARIABLES if scheme == "package" else GAZEBO_VARIABLES
+        for variable in variables:
+            notes.append(f"{variable}={self.environ[variable]}" if self.environ.get(variable) else f"{variable} unset")
+        what = f"package.xml naming {name!r} nor folder {name!r}" if scheme == "package" \
+            else f"folder {name!r} with a model.config"
+        notes.append(f"no {what} above {self.folder}")
+        return tuple(notes)
 
     def _checked(self, uri, candidates, ancestor_name=None):
         tried, seen = [], set()

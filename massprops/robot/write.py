@@ -161,19 +161,20 @@ def _edit(model, link, text_for, data, newline):
 
 
 def _selected(analysis, link, links_glob, all_links):
+    """``(entry, None)`` for a link to write, else ``(None, why)`` (``why`` empty for a link not asked for)."""
     entry = next(e for e in analysis["links"] if e["link"] == link.name)
     status = entry["status"]
+    if links_glob is not None:
+        wanted = any(fnmatchcase(link.name, g) for g in links_glob)
+    else:
+        wanted = all_links or status in ("missing", "invalid")
+    if not wanted:
+        return None, ""
     if status == "error":
         return None, f"not computed: {entry['message']}"
     if entry.get("mass") is None:
-        return None, "no geometry with volume"
-    if links_glob is not None:
-        return (entry, None) if any(fnmatchcase(link.name, g) for g in links_glob) else (None, "")
-    if link.declared is not None and link.declared.auto and not all_links:
-        return None, ""
-    if all_links or status in ("missing", "invalid"):
-        return entry, None
-    return None, ""
+        return None, "no geometry with volume to compute it from"
+    return entry, None
 
 
 def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="link"):
@@ -228,7 +229,7 @@ def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="
             result.skipped.append({"link": link.name, "reason": exc.problem})
             continue
         record = {"link": link.name, "before": entry["status"], "mass": mass, "center_of_mass": list(center),
-                  "frame": frame, "nudge": delta}
+                  "frame": frame, "nudge": delta, "warnings": list(entry.get("warnings") or [])}
         if delta:
             record["nudge_note"] = (f"moments raised by {delta:.3g} kg·m² ({delta / math.ulp(np.abs(tensor).max()):.0f} "
                                     f"ulp) so that A + B >= C survives rounding; "
