@@ -1,8 +1,6 @@
 """The generated robots: exact values per link, every diagnosis on its fixture and none on the clean links,
 write-then-check round trips, and bytes outside the inertial elements unchanged."""
 
-import json
-import math
 import os
 
 import numpy as np
@@ -192,14 +190,20 @@ def test_mujoco_accepts_the_written_mjcf_and_agrees(robots):
         assert sorted(body.inertia) == pytest.approx(sorted(np.linalg.eigvalsh(wanted["inertia_com"])), rel=1e-9)
 
 
-def test_mjcf_agrees_with_mujocos_own_exact_compile(robots):
-    # MuJoCo's inertia="exact" mode on the same geometry (float32 vertices, so ~1e-7 relative).
+@pytest.fixture(scope="module")
+def mujoco_and_ours(robots):
+    """MuJoCo's compile of the geometry-only MJCF robot (inertia from geoms, meshes in "exact" mode), and ours."""
     mujoco = pytest.importorskip("mujoco")
-    from massprops.frames import quat_to_matrix
-    directory, expected = robots
+    directory, _ = robots
     path = os.path.join(directory, "massprops_robot", "mjcf", "robot_geometry.xml")
-    model = mujoco.MjModel.from_xml_path(path)
     ours = {link["link"]: link for link in analyze(path, RobotSettings(command="props"))["links"]}
+    return mujoco.MjModel.from_xml_path(path), ours
+
+
+def test_mjcf_agrees_with_mujocos_own_exact_compile(mujoco_and_ours):
+    # MuJoCo keeps float32 mesh vertices: agreement to ~1e-7 relative.
+    from massprops.frames import quat_to_matrix
+    model, ours = mujoco_and_ours
     compared = 0
     for b in range(1, model.nbody):
         name = model.body(b).name
@@ -214,12 +218,8 @@ def test_mjcf_agrees_with_mujocos_own_exact_compile(robots):
     assert compared >= 12
 
 
-def test_mjcf_primitives_agree_with_mujoco_to_rounding(robots):
-    mujoco = pytest.importorskip("mujoco")
-    directory, _ = robots
-    path = os.path.join(directory, "massprops_robot", "mjcf", "robot_geometry.xml")
-    model = mujoco.MjModel.from_xml_path(path)
-    ours = {link["link"]: link for link in analyze(path, RobotSettings(command="props"))["links"]}
+def test_mjcf_primitives_agree_with_mujoco_to_rounding(mujoco_and_ours):
+    model, ours = mujoco_and_ours
     for name in ("base_link", "rounded", "plate", "about_origin"):       # box, capsule + ellipsoid: no mesh
         b = model.body(name).id
         assert model.body_mass[b] == pytest.approx(ours[name]["mass"], rel=1e-14)

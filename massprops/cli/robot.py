@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 
 import click
@@ -210,5 +209,4 @@ def write(model, output, in_place, links_glob, all_links, frame, **kwargs):
         click.echo(f"left {record['link']}: {record['reason']}")
     where = f"{target} (backup {model}.bak)" if in_place else target
     click.echo(f"{len(result.written)} inertial(s) written to {where}")
-    failed = [r for r in result.skipped if r["reason"].startswith("not computed")]
-    options.exit_with(failed)
+    options.exit_with([r for r in result.skipped if r["failed"]])

@@ -29,14 +29,13 @@ from fractions import Fraction
 
 import numpy as np
 
+from .fixture_files import (BRACKET, BRACKET_MM, DENSITY, ELEMENTS, OPEN, PACKAGE, PRISM, matrix, mesh_files, mjcf,
+                            mul, rational, sdf, transpose, urdf)
 from .model import rpy_rotation
 
 __all__ = ["write_robots", "write_sample", "DENSITY", "PACKAGE"]
 
-DENSITY = 2700                      # kg/m³, aluminium
-PACKAGE = "massprops_robot"
 _PI = Fraction(math.pi)
-_EIGHTH = Fraction(1, 16)           # the meshes are the reference solids at 1/16 scale: exact in binary
 
 
 @dataclass(frozen=True)
@@ -67,37 +66,21 @@ class Spec:
 
 # -- exact values -------------------------------------------------------------------
 
-def _q(text):
-    return Fraction(str(text))
-
-
-def _matrix(rows):
-    return [[Fraction(float(x)) for x in row] for row in rows]
-
-
-def _mul(a, b):
-    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-
-
-def _transpose(a):
-    return [[a[j][i] for j in range(3)] for i in range(3)]
-
-
 def _primitive(kind, size):
     """``(volume, center, J)`` of a primitive in its own frame, density 1, Fractions (π as ``Fraction(math.pi)``)."""
     if kind == "box":
-        a, b, c = (_q(x) for x in size["size"])
+        a, b, c = (rational(x) for x in size["size"])
         v = a * b * c
         return v, [0, 0, 0], _diag(v / 12 * (b * b + c * c), v / 12 * (a * a + c * c), v / 12 * (a * a + b * b))
     if kind == "sphere":
-        r = _q(size["radius"])
+        r = rational(size["radius"])
         v = Fraction(4, 3) * _PI * r ** 3
         return v, [0, 0, 0], _diag(*[Fraction(2, 5) * v * r * r] * 3)
     if kind == "ellipsoid":
-        a, b, c = (_q(x) for x in size["radii"])
+        a, b, c = (rational(x) for x in size["radii"])
         v = Fraction(4, 3) * _PI * a * b * c
         return v, [0, 0, 0], _diag(v / 5 * (b * b + c * c), v / 5 * (a * a + c * c), v / 5 * (a * a + b * b))
-    r, h = _q(size["radius"]), _q(size["length"])
+    r, h = rational(size["radius"]), rational(size["length"])
     if kind == "cylinder":
         v = _PI * r * r * h
         side = v * (3 * r * r + h * h) / 12
@@ -139,7 +122,7 @@ def _union(parts):
 def _scaled(values, scale):
     """``(V, c, J)`` of the solid mapped by ``diag(scale)``: ``C' = |det S| S C S`` on ``C = tr(J)/2 I − J``."""
     volume, center, inertia = values
-    s = [_q(x) for x in scale]
+    s = [rational(x) for x in scale]
     det = abs(s[0] * s[1] * s[2])
     trace = sum(inertia[k][k] for k in range(3)) / 2
     second = [[(trace if i == k else 0) - inertia[i][k] for k in range(3)] for i in range(3)]
@@ -151,10 +134,10 @@ def _scaled(values, scale):
 
 def _posed(values, xyz, rpy):
     volume, center, inertia = values
-    r = _matrix(rpy_rotation([float(_q(a)) for a in rpy]))
-    t = [Fraction(float(_q(x))) for x in xyz]
+    r = matrix(rpy_rotation([float(rational(a)) for a in rpy]))
+    t = [Fraction(float(rational(x))) for x in xyz]
     moved = [sum(r[i][k] * center[k] for k in range(3)) + t[i] for i in range(3)]
-    return volume, moved, _mul(_mul(r, inertia), _transpose(r))
+    return volume, moved, mul(mul(r, inertia), transpose(r))
 
 
 def _mesh_values(path):
@@ -185,36 +168,32 @@ def _floats(values):
 
 # -- the robots -------------------------------------------------------------------
 
-_BRACKET = "bracket.obj"
-_BRACKET_MM = "bracket_mm.obj"
-_OPEN = "open_box.obj"
-_PRISM = "prism.stl"
 _ROTATED = ("0.3", "-0.5", "0.7")        # an inertial frame rotation with no symmetry
 
 
 def _specs(fmt):
     """The links of the robot in format ``fmt`` (urdf, sdf, mjcf)."""
     tilt = ("0.4", "-0.3", "0.9")
-    bracket = Shape("mesh", xyz=("0.01", "-0.02", "0.03"), rpy=tilt, mesh=_BRACKET, scale=("0.5", "0.25", "2"))
+    bracket = Shape("mesh", xyz=("0.01", "-0.02", "0.03"), rpy=tilt, mesh=BRACKET, scale=("0.5", "0.25", "2"))
     specs = [
         Spec("base_link", (Shape("box", {"size": ("0.4", "0.3", "0.1")}, xyz=("0", "0", "0.05")),), joint="root"),
         Spec("bracket", (bracket,)),
-        Spec("mirrored", (Shape("mesh", xyz=("0", "0.05", "0"), rpy=("0.2", "0.1", "-0.3"), mesh=_BRACKET,
+        Spec("mirrored", (Shape("mesh", xyz=("0", "0.05", "0"), rpy=("0.2", "0.1", "-0.3"), mesh=BRACKET,
                                 scale=("-1", "1", "1")),)),
         Spec("multi", (Shape("cylinder", {"radius": "0.03", "length": "0.2"}, xyz=("0", "0", "0.1")),
                        Shape("sphere", {"radius": "0.05"}, xyz=("0", "0", "0.25")),
-                       Shape("mesh", xyz=("0.1", "0", "0"), rpy=("0", "0", "0.5"), mesh=_PRISM))),
+                       Shape("mesh", xyz=("0.1", "0", "0"), rpy=("0", "0", "0.5"), mesh=PRISM))),
         Spec("rotated_frame", (bracket,), declared="rotated"),
         Spec("tool0", (), declared=None, joint="fixed", status="massless"),
         Spec("sensor", (Shape("box", {"size": ("0.02", "0.03", "0.04")}),), declared=None, status="missing"),
-        Spec("open_part", (Shape("mesh", mesh=_OPEN),), declared="exact_of_box", status="error", computes=False),
+        Spec("open_part", (Shape("mesh", mesh=OPEN),), declared="exact_of_box", status="error", computes=False),
         Spec("flipped", (bracket,), declared="product_sign", status="mismatch", diagnoses=("product_sign",)),
         Spec("about_origin", (Shape("box", {"size": ("0.1", "0.05", "0.02")}, xyz=("0.2", "0.1", "0.05"),
                                     rpy=("0.3", "0.2", "0.1")),), declared="about_link_origin",
              status="mismatch", diagnoses=("about_link_origin",)),
         Spec("inverted", (bracket,), declared="rpy_inverted", status="mismatch", diagnoses=("rpy_inverted",)),
         Spec("millimetres", (bracket,), declared="units", status="mismatch", diagnoses=("units",)),
-        Spec("unscaled", (Shape("mesh", xyz=("0.02", "0", "0"), mesh=_BRACKET_MM),), declared="missing_scale",
+        Spec("unscaled", (Shape("mesh", xyz=("0.02", "0", "0"), mesh=BRACKET_MM),), declared="missing_scale",
              status="mismatch", diagnoses=("missing_scale",)),
         Spec("typo", (Shape("box", {"size": ("0.1", "0.08", "0.06")}, xyz=("0.05", "0", "0.02"),
                             rpy=("0.5", "0.4", "0.3")),), declared="transcription", status="mismatch", diagnoses=("transcription",)),
@@ -251,9 +230,9 @@ def _declared(spec, exact, meshes):
                   for i in range(3)]
     elif kind in ("rotated", "rpy_inverted"):
         rpy = _ROTATED
-        r = _matrix(rpy_rotation([float(_q(a)) for a in rpy]))
+        r = matrix(rpy_rotation([float(rational(a)) for a in rpy]))
         # Correct: W = Rᵀ J R.  Inverted: W = R J Rᵀ.
-        tensor = _mul(_mul(_transpose(r), inertia), r) if kind == "rotated" else _mul(_mul(r, inertia), _transpose(r))
+        tensor = mul(mul(transpose(r), inertia), r) if kind == "rotated" else mul(mul(r, inertia), transpose(r))
     elif kind == "units":
         tensor = [[x * 10 ** 6 for x in row] for row in inertia]
     elif kind == "missing_scale":
@@ -266,7 +245,7 @@ def _declared(spec, exact, meshes):
         tensor = [row[:] for row in inertia]
         tensor[2][2] = inertia[2][2] * Fraction(11, 10)
     elif kind == "rounded_plate":
-        texts = {name: f"{float(inertia[i][j]):.4g}" for name, (i, j) in _ELEMENTS.items()}
+        texts = {name: f"{float(inertia[i][j]):.4g}" for name, (i, j) in ELEMENTS.items()}
     elif kind == "not_positive_definite":
         a = inertia[0][0]
         tensor = [[a, 2 * a, 0], [2 * a, a, 0], [0, 0, a]]
@@ -279,7 +258,7 @@ def _typo(inertia):
     tensor = np.array([[float(x) for x in row] for row in inertia])
     scale = float(np.abs(tensor).max())
     for name in ("ixz", "ixy", "iyz", "izz", "iyy", "ixx"):
-        i, j = _ELEMENTS[name]
+        i, j = ELEMENTS[name]
         digits = f"{tensor[i, j]:.6e}"
         sign, digits = ("-", digits[1:]) if digits.startswith("-") else ("", digits)
         for first in "123456789":
@@ -293,222 +272,36 @@ def _typo(inertia):
     raise ValueError("no valid typo")
 
 
-_ELEMENTS = {"ixx": (0, 0), "ixy": (0, 1), "ixz": (0, 2), "iyy": (1, 1), "iyz": (1, 2), "izz": (2, 2)}
-
-
-def _r(value):
-    value = float(value)
-    return "0" if value == 0 else repr(value)
-
-
-def _write_meshes(folder, used):
-    from ..validation import solids
-    from ..io import obj, stl
-    os.makedirs(folder, exist_ok=True)
-    bracket, box, prism = solids.l_bracket(), solids.box((0.05, 0.05, 0.05)), solids.regular_prism(8, 0.03, 0.04)
-    writers = {
-        _BRACKET: lambda path: obj.write(path, bracket.vertices * float(_EIGHTH), bracket.faces,
-                                         comment="massprops reference L-bracket at 1/16 scale (metres)"),
-        _BRACKET_MM: lambda path: obj.write(path, bracket.vertices * float(_EIGHTH * 1000), bracket.faces,
-                                            comment="the same L-bracket in millimetres"),
-        # 11 of the box's 12 triangles: open.
-        _OPEN: lambda path: obj.write(path, box.vertices, box.faces[:-1], comment="a box with one triangle missing"),
-        _PRISM: lambda path: stl.write_binary(path, prism.triangles.astype(np.float32),
-                                              header=b"massprops octagonal prism"),
-    }
-    paths = {}
-    for name in sorted(used):
-        paths[name] = os.path.join(folder, name)
-        writers[name](paths[name])
-    return paths
-
-
-# -- writers per format ---------------------------------------------------------------
-
-def _urdf_geometry(shape, role, indent):
-    if shape.kind == "mesh":
-        scale = f' scale="{" ".join(shape.scale)}"' if shape.scale else ""
-        body = f'<mesh filename="package://{PACKAGE}/meshes/{shape.mesh}"{scale}/>'
-    elif shape.kind == "box":
-        body = f'<box size="{" ".join(shape.size["size"])}"/>'
-    elif shape.kind == "sphere":
-        body = f'<sphere radius="{shape.size["radius"]}"/>'
-    else:
-        body = f'<{shape.kind} radius="{shape.size["radius"]}" length="{shape.size["length"]}"/>'
-    return (f'{indent}<{role}>\n{indent}  <origin xyz="{" ".join(shape.xyz)}" rpy="{" ".join(shape.rpy)}"/>\n'
-            f'{indent}  <geometry>{body}</geometry>\n{indent}</{role}>\n')
-
-
-def _urdf(specs, declared):
-    lines = ['<?xml version="1.0"?>\n', '<!-- massprops robot fixture: see expected.json beside the package -->\n',
-             '<robot name="massprops_robot">\n']
-    for spec in specs:
-        lines.append(f'  <link name="{spec.name}">\n')
-        if spec.name in declared:
-            mass, center, tensor, rpy, texts = declared[spec.name]
-            e = {name: texts.get(name, _r(tensor[i][j])) for name, (i, j) in _ELEMENTS.items()}
-            lines.append(f'    <inertial>\n      <origin xyz="{" ".join(_r(x) for x in center)}" '
-                         f'rpy="{" ".join(rpy)}"/>\n      <mass value="{_r(mass)}"/>\n      <inertia '
-                         + " ".join(f'{k}="{v}"' for k, v in e.items()) + '/>\n    </inertial>\n')
-        for shape in spec.shapes:
-            lines.append(_urdf_geometry(shape, "collision", "    "))
-        lines.append("  </link>\n")
-    for k, spec in enumerate(specs[1:], 1):
-        kind = "fixed" if spec.joint == "fixed" else "revolute"
-        limit = '\n    <limit lower="-3" upper="3" effort="10" velocity="1"/>' if kind == "revolute" else ""
-        lines.append(f'  <joint name="joint_{spec.name}" type="{kind}">\n    <parent link="base_link"/>\n'
-                     f'    <child link="{spec.name}"/>\n    <origin xyz="{0.1 * k:.1f} 0 0.1" rpy="0 0 0"/>\n'
-                     f'    <axis xyz="0 0 1"/>{limit}\n  </joint>\n')
-    lines.append("</robot>\n")
-    return "".join(lines)
-
-
-def _pose(xyz, rpy):
-    return f'{" ".join(xyz)} {" ".join(rpy)}'
-
-
-def _sdf_geometry(shape, role, name, indent, density=None):
-    if shape.kind == "mesh":
-        scale = f"<scale>{' '.join(shape.scale)}</scale>" if shape.scale else ""
-        body = f"<mesh><uri>model://{PACKAGE}/meshes/{shape.mesh}</uri>{scale}</mesh>"
-    elif shape.kind == "box":
-        body = f"<box><size>{' '.join(shape.size['size'])}</size></box>"
-    elif shape.kind == "sphere":
-        body = f"<sphere><radius>{shape.size['radius']}</radius></sphere>"
-    elif shape.kind == "ellipsoid":
-        body = f"<ellipsoid><radii>{' '.join(shape.size['radii'])}</radii></ellipsoid>"
-    else:
-        body = (f"<{shape.kind}><radius>{shape.size['radius']}</radius><length>{shape.size['length']}</length>"
-                f"</{shape.kind}>")
-    # A second geometry's pose in degrees, a third's as a quaternion (x y z w): both SDF forms exercised.
-    if name.endswith("_1"):
-        angles = " ".join(repr(math.degrees(float(a))) for a in shape.rpy)
-        pose = f'<pose degrees="true">{" ".join(shape.xyz)} {angles}</pose>'
-    elif name.endswith("_2"):
-        from ..frames import Pose
-        q = Pose(rpy_rotation([float(_q(a)) for a in shape.rpy])).as_quat(scalar_first=False)
-        pose = f'<pose rotation_format="quat_xyzw">{" ".join(shape.xyz)} {" ".join(_r(x) for x in q)}</pose>'
-    else:
-        pose = f"<pose>{_pose(shape.xyz, shape.rpy)}</pose>"
-    extra = f"<density>{density}</density>" if density is not None else ""
-    return f'{indent}<{role} name="{name}">{pose}{extra}<geometry>{body}</geometry></{role}>\n'
-
-
-def _sdf(specs, declared):
-    lines = ['<?xml version="1.0"?>\n', '<sdf version="1.11">\n', f'  <model name="{PACKAGE}">\n',
-             '    <frame name="rail"><pose>0.05 0 0.1 0 0 0</pose></frame>\n']
-    for k, spec in enumerate(specs):
-        # Links sit relative to a frame (relative_to), and the rail frame is itself off the model origin.
-        lines.append(f'    <link name="{spec.name}">\n')
-        lines.append(f'      <pose relative_to="rail">{0.1 * k:.1f} 0 0 0 0 0</pose>\n' if k else "")
-        if spec.name == "rounded":
-            lines.append('      <inertial auto="true"/>\n')
-        elif spec.name in declared:
-            mass, center, tensor, rpy, texts = declared[spec.name]
-            e = {name: texts.get(name, _r(tensor[i][j])) for name, (i, j) in _ELEMENTS.items()}
-            lines.append(f'      <inertial>\n        <pose>{" ".join(_r(x) for x in center)} {" ".join(rpy)}</pose>\n'
-                         f'        <mass>{_r(mass)}</mass>\n        <inertia>'
-                         + "".join(f"<{k}>{v}</{k}>" for k, v in e.items()) + "</inertia>\n      </inertial>\n")
-        for j, shape in enumerate(spec.shapes):
-            lines.append(_sdf_geometry(shape, "collision", f"{spec.name}_collision_{j}", "      ",
-                                       DENSITY if spec.name == "rounded" else None))
-        lines.append("    </link>\n")
-    for spec in specs[1:]:
-        kind = "fixed" if spec.joint == "fixed" else "revolute"
-        lines.append(f'    <joint name="joint_{spec.name}" type="{kind}"><parent>base_link</parent>'
-                     f'<child>{spec.name}</child><axis><xyz>0 0 1</xyz></axis></joint>\n')
-    lines.append("  </model>\n</sdf>\n")
-    return "".join(lines)
-
-
-def _mjcf_geom(shape):
-    quat = " ".join(_r(x) for x in _quat(shape.rpy))
-    common = f'pos="{" ".join(shape.xyz)}" quat="{quat}"'
-    if shape.kind == "mesh":
-        return f'<geom type="mesh" mesh="{_mesh_name(shape)}" {common}/>'
-    if shape.kind == "box":
-        half = " ".join(_r(_q(x) / 2) for x in shape.size["size"])
-        return f'<geom type="box" size="{half}" {common}/>'
-    if shape.kind == "sphere":
-        return f'<geom type="sphere" size="{shape.size["radius"]}" {common}/>'
-    if shape.kind == "ellipsoid":
-        return f'<geom type="ellipsoid" size="{" ".join(shape.size["radii"])}" {common}/>'
-    half = _r(_q(shape.size["length"]) / 2)
-    return f'<geom type="{shape.kind}" size="{shape.size["radius"]} {half}" {common}/>'
-
-
-def _quat(rpy):
-    from ..frames import Pose
-    return Pose(rpy_rotation([float(_q(a)) for a in rpy])).as_quat()
-
-
-def _mesh_name(shape):
-    scale = "_".join(s.replace("-", "m").replace(".", "p") for s in shape.scale) if shape.scale else "1"
-    return f"{os.path.splitext(shape.mesh)[0]}_{scale}"
-
-
-def _mjcf(specs, declared, *, geometry_only=False):
-    meshes = {}
-    for spec in specs:
-        for shape in spec.shapes:
-            if shape.kind == "mesh" and shape.mesh != _OPEN:
-                meshes[_mesh_name(shape)] = shape
-    lines = ['<mujoco model="massprops_robot">\n',
-             '  <compiler angle="radian" meshdir="../meshes"'
-             + (' inertiafromgeom="true"' if geometry_only else "") + "/>\n",
-             f'  <default><geom density="{DENSITY}"/></default>\n', "  <asset>\n"]
-    for name, shape in meshes.items():
-        scale = f' scale="{" ".join(shape.scale)}"' if shape.scale else ""
-        exact = ' inertia="exact"' if geometry_only else ""
-        lines.append(f'    <mesh name="{name}" file="{shape.mesh}"{scale}{exact}/>\n')
-    lines.append("  </asset>\n  <worldbody>\n")
-    base, others = specs[0], [s for s in specs[1:] if s.shapes or s.name == "tool0"]
-    if geometry_only:
-        others = [s for s in others if s.computes and s.shapes]
-    lines.append(f'    <body name="{base.name}">\n')
-    lines += _mjcf_body_inside(base, declared, geometry_only, "      ")
-    for k, spec in enumerate(others, 1):
-        if spec.name == "open_part" or (spec.shapes and spec.shapes[0].mesh == _OPEN):
-            continue
-        lines.append(f'      <body name="{spec.name}" pos="{0.1 * k:.1f} 0 0.1">\n')
-        if spec.joint != "fixed":
-            lines.append(f'        <joint name="joint_{spec.name}" type="hinge" axis="0 0 1"/>\n')
-        lines += _mjcf_body_inside(spec, declared, geometry_only, "        ")
-        lines.append("      </body>\n")
-    lines.append("    </body>\n  </worldbody>\n</mujoco>\n")
-    return "".join(lines)
-
-
-def _mjcf_body_inside(spec, declared, geometry_only, indent):
-    lines = []
-    if not geometry_only and spec.name in declared:
-        mass, center, tensor, rpy, texts = declared[spec.name]
-        pos = " ".join(_r(x) for x in center)
-        if spec.declared in ("rotated", "rpy_inverted"):
-            # MJCF rotates only a diagonal tensor: the principal moments in the axes of quat.
-            r = _matrix(rpy_rotation([float(_q(a)) for a in rpy]))
-            # The truth J: W = Rᵀ J R when written right, W = R J Rᵀ when inverted.
-            truth = _mul(_mul(_transpose(r), tensor), r) if spec.declared == "rpy_inverted" else \
-                _mul(_mul(r, tensor), _transpose(r))
-            moments, axes = np.linalg.eigh(np.array([[float(x) for x in row] for row in truth]))
-            if np.linalg.det(axes) < 0:
-                axes[:, 2] = -axes[:, 2]
-            from ..frames import Pose
-            quat = Pose(axes).as_quat()
-            if spec.declared == "rpy_inverted":
-                quat = quat * np.array([1, -1, -1, -1])
-            lines.append(f'{indent}<inertial pos="{pos}" quat="{" ".join(_r(x) for x in quat)}" mass="{_r(mass)}" '
-                         f'diaginertia="{" ".join(_r(x) for x in moments)}"/>\n')
-        else:
-            e = {name: texts.get(name, _r(tensor[i][j])) for name, (i, j) in _ELEMENTS.items()}
-            full = " ".join(e[k] for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
-            lines.append(f'{indent}<inertial pos="{pos}" mass="{_r(mass)}" fullinertia="{full}"/>\n')
-    for shape in spec.shapes:
-        lines.append(f"{indent}{_mjcf_geom(shape)}\n")
-    return lines
-
-
 SAMPLE_LINKS = ("base_link", "bracket", "multi", "tool0", "sensor", "flipped", "thin_plate")
+
+
+_FILES = {"urdf": ("urdf/robot.urdf", urdf), "sdf": ("sdf/robot.sdf", sdf), "mjcf": ("mjcf/robot.xml", mjcf)}
+
+
+def _write_format(package, fmt, specs, meshes):
+    """Write one format's robot; its entry of ``expected.json``."""
+    exact = {s.name: exact_link(s.shapes, meshes) for s in specs if s.shapes and s.computes}
+    box = (Shape("box", {"size": ("0.05", "0.05", "0.05")}),)        # what the open mesh's link declares
+    declared = {spec.name: _declared(spec, exact.get(spec.name) or exact_link(box, meshes), meshes)
+                for spec in specs if spec.declared is not None}
+    relative, write = _FILES[fmt]
+    texts = {relative: write(specs, declared)}
+    if fmt == "mjcf":
+        texts["mjcf/robot_geometry.xml"] = mjcf(specs, declared, geometry_only=True)
+    for name, text in texts.items():
+        os.makedirs(os.path.dirname(os.path.join(package, name)), exist_ok=True)
+        with open(os.path.join(package, name), "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+    links = {}
+    for spec in specs:
+        if fmt == "mjcf" and (spec.name == "open_part" or (not spec.shapes and spec.name != "tool0")):
+            continue
+        entry = {"status": _status(spec, fmt), "diagnoses": list(spec.diagnoses)}
+        if spec.name in exact:
+            mass, center, inertia = _floats(exact[spec.name])
+            entry["computed"] = {"mass": mass, "center_of_mass": center, "inertia_com": inertia}
+        links[spec.name] = entry
+    return {"model": os.path.join(PACKAGE, relative), "links": links}
 
 
 def write_robots(directory, *, formats=("urdf", "sdf", "mjcf"), links=None):
@@ -528,7 +321,7 @@ def write_robots(directory, *, formats=("urdf", "sdf", "mjcf"), links=None):
     package = os.path.join(directory, PACKAGE)
     chosen = {fmt: [s for s in _specs(fmt) if links is None or s.name in links] for fmt in formats}
     used = {shape.mesh for specs in chosen.values() for spec in specs for shape in spec.shapes if shape.mesh}
-    meshes = _write_meshes(os.path.join(package, "meshes"), used)
+    meshes = mesh_files(os.path.join(package, "meshes"), used)
     with open(os.path.join(package, "package.xml"), "w", encoding="utf-8") as handle:
         handle.write(f'<?xml version="1.0"?>\n<package format="3">\n  <name>{PACKAGE}</name>\n  <version>0.1.0'
                      "</version>\n  <description>massprops robot fixtures</description>\n"
@@ -539,34 +332,8 @@ def write_robots(directory, *, formats=("urdf", "sdf", "mjcf"), links=None):
             handle.write(f'<?xml version="1.0"?>\n<model>\n  <name>{PACKAGE}</name>\n  <sdf version="1.11">'
                          "sdf/robot.sdf</sdf>\n</model>\n")
     expected = {"density": DENSITY, "package": PACKAGE}
-    writers = {"urdf": ("urdf/robot.urdf", _urdf), "sdf": ("sdf/robot.sdf", _sdf), "mjcf": ("mjcf/robot.xml", _mjcf)}
     for fmt in formats:
-        specs = chosen[fmt]
-        exact = {s.name: exact_link(s.shapes, meshes) for s in specs if s.shapes and s.computes}
-        declared = {}
-        for spec in specs:
-            if spec.declared is None:
-                continue
-            base = exact.get(spec.name) or exact_link((Shape("box", {"size": ("0.05", "0.05", "0.05")}),), meshes)
-            declared[spec.name] = _declared(spec, base, meshes)
-        relative, write = writers[fmt]
-        path = os.path.join(package, relative)
-        os.makedirs(os.path.dirname(path), exist_ok=True)
-        with open(path, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(write(specs, declared))
-        if fmt == "mjcf":
-            with open(os.path.join(package, "mjcf/robot_geometry.xml"), "w", encoding="utf-8", newline="\n") as h:
-                h.write(_mjcf(specs, declared, geometry_only=True))
-        links = {}
-        for spec in specs:
-            if fmt == "mjcf" and (spec.name == "open_part" or (not spec.shapes and spec.name != "tool0")):
-                continue
-            entry = {"status": _status(spec, fmt), "diagnoses": list(_diagnoses(spec, fmt))}
-            if spec.name in exact:
-                mass, center, inertia = _floats(exact[spec.name])
-                entry["computed"] = {"mass": mass, "center_of_mass": center, "inertia_com": inertia}
-            links[spec.name] = entry
-        expected[fmt] = {"model": os.path.join(PACKAGE, relative), "links": links}
+        expected[fmt] = _write_format(package, fmt, chosen[fmt], meshes)
     with open(os.path.join(directory, "expected.json"), "w", encoding="utf-8", newline="\n") as handle:
         json.dump(expected, handle, indent=1)
         handle.write("\n")
@@ -579,10 +346,6 @@ def _status(spec, fmt):
     if fmt == "sdf" and spec.status == "missing":
         return "missing"
     return spec.status
-
-
-def _diagnoses(spec, fmt):
-    return spec.diagnoses
 
 
 def write_sample(directory):

@@ -110,18 +110,14 @@ def _policy(link, settings):
     return policy or settings.policy
 
 
-def link_properties(model, link, settings, resolver):
-    """The :class:`LinkProps` of ``link`` under ``settings``.
+def _geometries(link, settings, resolver):
+    """Each chosen geometry computed at its density: ``(results, infos, warnings, defaulted)``.
 
-    Raises
-    ------
-    MassPropsError
-        A geometry that cannot be computed (missing or open mesh, bad size), with
-        the link, the element and the URI named.
+    ``results`` holds ``(geometry, MassProperties, GeometryResult)`` for those with volume;
+    ``infos`` one JSON-able dict per geometry; ``defaulted`` whether a density fell back to 1000.
     """
-    chosen = link.chosen(settings.geometry)
     results, infos, warnings, defaulted = [], [], [], False
-    for geometry in chosen:
+    for geometry in link.chosen(settings.geometry):
         density, mass, source = _density_for(link, geometry, settings)
         try:
             result = geometry_properties(geometry, density if density is not None else 1.0, resolver=resolver,
@@ -133,44 +129,58 @@ def link_properties(model, link, settings, resolver):
                 "resolved_path": result.resolved_path, "resolved_by": result.resolved_by}
         if geometry.scale is not None:
             info["scale"] = [float(s) for s in geometry.scale]
+        infos.append(info)
         if result.props is None:
             info["included"] = False
-            infos.append(info)
             continue
-        props = result.props
-        if mass is not None:
-            props = scaled_to_mass(props, mass)
-        elif source == "default":
-            defaulted = True
+        props = scaled_to_mass(result.props, mass) if mass is not None else result.props
+        defaulted = defaulted or (mass is None and source == "default")
         info.update(volume=props.volume, mass=props.mass, density=props.density, density_source=source,
                     triangles=result.triangles, included=True)
-        infos.append(info)
         results.append((geometry, props, result))
+    return results, infos, warnings, defaulted
+
+
+def _link_mass(link, settings):
+    """``(mass, source)`` the link's total is scaled to (a config mass, or the declared one), or ``(None, "")``."""
+    link_mass = settings.config.link_mass(link.name) if settings.config is not None else None
+    if link_mass is not None:
+        return link_mass, "config mass"
+    declared = link.declared
+    if declared is not None and declared.mass is not None and math.isfinite(declared.mass.value) \
+            and declared.mass.value > 0 and (_policy(link, settings) == "keep" or declared.auto):
+        return declared.mass.value, ("declared mass (auto inertial)" if declared.auto
+                                     else "declared mass (--mass-policy keep)")
+    return None, ""
+
+
+def link_properties(model, link, settings, resolver):
+    """The :class:`LinkProps` of ``link`` under ``settings``.
+
+    Raises
+    ------
+    MassPropsError
+        A geometry that cannot be computed (missing or open mesh, bad size), with
+        the link, the element and the URI named.
+    """
+    results, infos, warnings, defaulted = _geometries(link, settings, resolver)
     if not results:
         return LinkProps(None, tuple(infos), tuple(warnings))
     total = combine_parts([props for _, props, _ in results])
     densities = {props.density for _, props, _ in results}
     if len(densities) == 1:
         total = replace(total, density=densities.pop())      # one material: its density, not mass / volume
-    mass_source = "density"
-    link_mass = settings.config.link_mass(link.name) if settings.config is not None else None
-    declared = link.declared
-    if link_mass is not None:
-        total, mass_source = scaled_to_mass(total, link_mass), "config mass"
-    elif declared is not None and declared.mass is not None and math.isfinite(declared.mass.value) \
-            and declared.mass.value > 0 and (_policy(link, settings) == "keep" or declared.auto):
-        total = scaled_to_mass(total, declared.mass.value)
-        mass_source = "declared mass (auto inertial)" if declared.auto else "declared mass (--mass-policy keep)"
-    elif defaulted and not (declared is not None and declared.mass is not None and declared.mass.value == 0):
-        warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
-                        "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
-    if mass_source != "density":
+    mass, mass_source = _link_mass(link, settings)
+    if mass is not None:
+        total = scaled_to_mass(total, mass)
         ratio = total.mass / sum(i["mass"] for i in infos if i.get("included"))
         for info in infos:
             if info.get("included"):
-                info["mass"] *= ratio
-                info["density"] *= ratio
-                info["density_source"] = mass_source
+                info.update(mass=info["mass"] * ratio, density=info["density"] * ratio, density_source=mass_source)
+    elif defaulted and not (link.declared is not None and link.declared.mass is not None
+                            and link.declared.mass.value == 0):
+        warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
+                        "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
     boxes = [r.bounds for _, _, r in results if r.bounds is not None]
     bounds = np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)]) \
         if boxes else None
@@ -179,7 +189,7 @@ def link_properties(model, link, settings, resolver):
         warnings.append(f"link {link.name!r}: geometries {', '.join(f'{a!r} and {b!r}' for a, b in overlaps)} may "
                         "overlap (their boxes intersect): each is counted whole")
     return LinkProps(total, tuple(infos), tuple(warnings), sum(r.triangles for _, _, r in results), bounds,
-                     mass_source, tuple(results))
+                     mass_source or "density", tuple(results))
 
 
 def _overlapping(results):

@@ -3,8 +3,8 @@
 Conventions (MuJoCo's XML reference, ``doc/XMLreference.rst``): quaternions
 are ``w x y z`` (scalar first); ``euler`` angles are in degrees unless
 ``<compiler angle="radian">``, in the sequence ``<compiler eulerseq>``
-(default ``xyz``, lower case rotating about the moving axes... as MuJoCo
-defines it; MuJoCo resolves it here); geom ``size`` is half-lengths (box:
+(default ``xyz``: lower case intrinsic, upper case extrinsic; URDF's rpy is
+``XYZ``); geom ``size`` is half-lengths (box:
 half edges; capsule, cylinder: radius and half-length); ``fullinertia`` is
 ``Ixx Iyy Izz Ixy Ixz Iyz`` (the tensor's own elements) about ``pos`` in the
 body axes, ``diaginertia`` the principal moments in the axes of ``quat``.
@@ -198,6 +198,53 @@ def _body_elements(path, spec):
             in matched.items()}, spans, data
 
 
+def _compiled(spec, path, resolver, mujoco):
+    """``(model, files, problems)``: the neutral copy compiled, each mesh's file, and the meshes not found."""
+    files, problems = _mesh_files(spec, path, resolver)
+    try:
+        model = _neutral_copy(spec, mujoco, problems).compile()
+    except Exception as exc:  # noqa: BLE001 - MuJoCo raises ValueError with its own message
+        raise RobotFormatError(f"MuJoCo cannot compile it: {' '.join(str(exc).split())}", path=path) from None
+    return model, files, problems
+
+
+def _body_geometries(model, spec, files, problems, path, mujoco):
+    """``(geometries per body index, errors per body index, geoms of the world body)``."""
+    kept, left_out = _spec_geoms_by_compiled(spec, problems, mujoco)
+    if len(kept) != model.ngeom:
+        raise RobotFormatError(f"MuJoCo compiled {model.ngeom} geoms from {len(kept)}: cannot match them",
+                               path=path)
+    bodies = list(spec.bodies)
+    geometries, errors, counters, world_geoms = {k: [] for k in range(len(bodies))}, {}, {}, 0
+    for g, geom in enumerate(kept):
+        b = int(model.geom_bodyid[g])
+        if b == 0:
+            world_geoms += 1
+            continue
+        geometries[b].append(_geometry(model, g, geom, spec, files, path, counters, b, mujoco))
+    for geom in left_out:
+        k = next(i for i, body in enumerate(bodies) if body.name == geom.parent.name and body.id == geom.parent.id)
+        errors.setdefault(k, []).append(f"geom {geom.name or '(unnamed)'}: {problems[geom.meshname]}")
+    return geometries, errors, world_geoms
+
+
+def _link(k, body, names, model, geometries, errors, elements, spans, path):
+    element, inertial_element = elements.get(names[k], (None, None))
+    span = spans.get(element) if spans and element is not None else None
+    inertial_span = spans.get(inertial_element) if spans and inertial_element is not None else None
+    declared = None
+    if body.explicitinertial:
+        declared = _declared(body, _quat(model.body_iquat[k]), inertial_element, path)
+        if inertial_span is not None:
+            declared = replace(declared, span=(inertial_span.start, inertial_span.end),
+                               line=inertial_element.sourceline)
+    parent = int(model.body_parentid[k])
+    return Link(names[k], tuple(geometries[k]), declared, names[parent] if parent else None,
+                Pose(_quat(model.body_quat[k]), np.array(model.body_pos[k])),
+                error="; ".join(errors[k]) if k in errors else None, span=(span.start, span.end) if span else None,
+                insert_at=span.content if span else None, line=element.sourceline if element is not None else None)
+
+
 def read_mjcf(path, resolver):
     """Read an MJCF file through MuJoCo into a RobotModel (bodies are the links; the world body is left out)."""
     mujoco = import_mujoco(path)
@@ -206,53 +253,13 @@ def read_mjcf(path, resolver):
         spec = mujoco.MjSpec.from_file(path)
     except Exception as exc:  # noqa: BLE001 - MuJoCo raises ValueError with its own message
         raise RobotFormatError(f"MuJoCo cannot read it: {' '.join(str(exc).split())}", path=path) from None
-    files, problems = _mesh_files(spec, path, resolver)
-    neutral = _neutral_copy(spec, mujoco, problems)
-    try:
-        model = neutral.compile()
-    except Exception as exc:  # noqa: BLE001
-        raise RobotFormatError(f"MuJoCo cannot compile it: {' '.join(str(exc).split())}", path=path) from None
+    model, files, problems = _compiled(spec, path, resolver, mujoco)
     elements, spans, data = _body_elements(path, spec)
-    kept, left_out = _spec_geoms_by_compiled(spec, problems, mujoco)
-    if len(kept) != model.ngeom:
-        raise RobotFormatError(f"MuJoCo compiled {model.ngeom} geoms from {len(kept)}: cannot match them",
-                               path=path)
+    geometries, errors, world_geoms = _body_geometries(model, spec, files, problems, path, mujoco)
     bodies = list(spec.bodies)
     names = [_name(b, "body", k) for k, b in enumerate(bodies)]
-    geometries = {k: [] for k in range(len(bodies))}
-    counters = {}
-    world_geoms = 0
-    for g, geom in enumerate(kept):
-        b = int(model.geom_bodyid[g])
-        if b == 0:
-            world_geoms += 1
-            continue
-        geometries[b].append(_geometry(model, g, geom, spec, files, path, counters, b, mujoco))
-    errors = {}
-    for geom in left_out:
-        body = geom.parent
-        k = next(i for i, candidate in enumerate(bodies) if candidate.name == body.name and candidate.id == body.id)
-        errors.setdefault(k, []).append(f"geom {geom.name or '(unnamed)'}: {problems[geom.meshname]}")
-    links = []
-    for k in range(1, len(bodies)):
-        body = bodies[k]
-        element, inertial_element = elements.get(names[k], (None, None))
-        span = spans.get(element) if spans and element is not None else None
-        inertial_span = spans.get(inertial_element) if spans and inertial_element is not None else None
-        declared = None
-        if body.explicitinertial:
-            declared = _declared(body, _quat(model.body_iquat[k]), inertial_element, path)
-            if inertial_span is not None:
-                declared = replace(declared, span=(inertial_span.start, inertial_span.end),
-                                   line=inertial_element.sourceline)
-        parent = int(model.body_parentid[k])
-        links.append(Link(names[k], tuple(geometries[k]), declared, names[parent] if parent else None,
-                          Pose(_quat(model.body_quat[k]), np.array(model.body_pos[k])),
-                          error="; ".join(errors[k]) if k in errors else None,
-                          span=(span.start, span.end) if span else None,
-                          insert_at=span.content if span else None,
-                          line=element.sourceline if element is not None else None))
-    joints = _joints(model, names, mujoco)
+    links = [_link(k, bodies[k], names, model, geometries, errors, elements, spans, path)
+             for k in range(1, len(bodies))]
     warnings = []
     if world_geoms:
         warnings.append(f"{world_geoms} geom(s) of the world body (static scenery) are not reported")
@@ -260,8 +267,8 @@ def read_mjcf(path, resolver):
         warnings.append("<compiler inertiafromgeom=\"true\">: MuJoCo ignores the declared inertials and computes "
                         "them from the geoms")
     writable = None if spans is not None else "the file's elements could not be located byte by byte"
-    return RobotModel(path, "mjcf", spec.modelname or "", tuple(links), tuple(joints), data, tuple(warnings),
-                      frame="world", writable=writable, extra={"compiled": model})
+    return RobotModel(path, "mjcf", spec.modelname or "", tuple(links), tuple(_joints(model, names, mujoco)), data,
+                      tuple(warnings), frame="world", writable=writable)
 
 
 def _geometry(model, g, geom, spec, files, path, counters, body, mujoco):

@@ -37,16 +37,12 @@ from ..errors import MassPropsError
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
-from .xmlspans import parse_with_spans
+from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 
 __all__ = ["read_sdf", "parse_pose"]
 
 _NO_VOLUME = ("plane", "heightmap", "polyline", "image", "empty")
 _MODEL_FRAME = "__model__"
-
-
-def _line(element):
-    return f" (line {element.sourceline})" if element.sourceline else ""
 
 
 def parse_pose(element, path, what):
@@ -207,17 +203,13 @@ def _number(element, name, default, path, what, warnings=None):
 
 def _geometry(element, role, index, frames, link_name, scope, path, link_density):
     name = element.get("name") or f"{role}[{index}]"
-    where = f"{role} {name!r}{_line(element)}"
+    where = f"{role} {name!r}{line_of(element)}"
     pose_element = element.find("pose")
     relative_to = _relative_to(pose_element)
     pose = parse_pose(pose_element, path, where)
     if relative_to is not None:
         pose = frames.pose(link_name).inverse().compose(frames.pose(scope + relative_to).compose(pose))
-    holder = element.find("geometry")
-    shapes = [] if holder is None else [c for c in holder if isinstance(c.tag, str)]
-    if len(shapes) != 1:
-        raise RobotFormatError(f"{where}: <geometry> must hold one shape, found {len(shapes)}", path=path)
-    shape = shapes[0]
+    shape = the_shape(element, where, path)
     kind = shape.tag
     density = _number(element, "density", None, path, where) if role == "collision" else None
     density = density.value if density is not None else link_density
@@ -248,7 +240,6 @@ def _geometry(element, role, index, frames, link_name, scope, path, link_density
                                    fix="export the submesh as its own file")
         scale = None
         if shape.find("scale") is not None:
-            from .urdf import parse_numbers
             scale = tuple(d.exact for d in parse_numbers(shape.findtext("scale"), 3, what=f"{where} scale",
                                                          path=path))
         return Geometry("mesh", uri=uri, scale=scale, base=os.path.dirname(os.path.abspath(path)), **base)
@@ -258,7 +249,7 @@ def _geometry(element, role, index, frames, link_name, scope, path, link_density
 
 
 def _inertial(element, link_name, path, spans, warnings):
-    where = f"link {link_name!r} <inertial>{_line(element)}"
+    where = f"link {link_name!r} <inertial>{line_of(element)}"
     auto = (element.get("auto") or "false").strip().lower() in ("true", "1")
     span = spans.get(element) if spans else None
     span = (span.start, span.end) if span else None
@@ -310,7 +301,6 @@ def _axis(joint, frames, scope, name, child, path, version):
     xyz = axis.find("xyz") if axis is not None else None
     if xyz is None:
         return np.array([0.0, 0.0, 1.0])
-    from .urdf import parse_numbers
     vector = np.array([d.value for d in parse_numbers(xyz.text, 3, what=f"joint {name!r} axis", path=path)])
     norm = float(np.linalg.norm(vector))
     if not norm > 0:

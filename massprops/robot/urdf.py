@@ -25,17 +25,9 @@ from ..errors import MassPropsError, OptionError
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
-from .xmlspans import parse_with_spans
+from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 
-__all__ = ["read_urdf", "expand_xacro", "parse_numbers"]
-
-
-def parse_numbers(text, count, *, what, path=None):
-    """``count`` Decimals from whitespace-separated ``text`` (RobotFormatError otherwise)."""
-    tokens = (text or "").split()
-    if len(tokens) != count:
-        raise RobotFormatError(f"{what}: expected {count} numbers, got {text!r}", path=path)
-    return [Decimal.parse(t, what=what, path=path) for t in tokens]
+__all__ = ["read_urdf", "expand_xacro"]
 
 
 def _origin(element, path, what):
@@ -48,12 +40,8 @@ def _origin(element, path, what):
     return Pose(rpy_rotation(rpy), np.array(xyz)), rpy
 
 
-def _line(element):
-    return f" (line {element.sourceline})" if element.sourceline else ""
-
-
 def _inertial(element, path, spans):
-    where = f"<inertial>{_line(element)}"
+    where = f"<inertial>{line_of(element)}"
     pose, rpy = _origin(element, path, where)
     mass_element = element.find("mass")
     if mass_element is None or mass_element.get("value") is None:
@@ -83,13 +71,9 @@ def _scale(text, where, path):
 
 def _geometry(element, role, index, path):
     name = element.get("name")
-    where = f"{role} {name!r}{_line(element)}" if name else f"{role}[{index}]{_line(element)}"
+    where = f"{role} {name!r}{line_of(element)}" if name else f"{role}[{index}]{line_of(element)}"
     pose, _ = _origin(element, path, where)
-    holder = element.find("geometry")
-    shapes = [] if holder is None else [c for c in holder if isinstance(c.tag, str)]
-    if len(shapes) != 1:
-        raise RobotFormatError(f"{where}: <geometry> must hold one shape, found {len(shapes)}", path=path)
-    shape = shapes[0]
+    shape = the_shape(element, where, path)
     kind = shape.tag
 
     def number(attribute):
@@ -138,7 +122,7 @@ def _link(element, path, spans):
 
 def _joint(element, path):
     name = element.get("name")
-    where = f"joint {name!r}{_line(element)}"
+    where = f"joint {name!r}{line_of(element)}"
     kind = element.get("type")
     parent, child = element.find("parent"), element.find("child")
     if kind is None or parent is None or child is None or not parent.get("link") or not child.get("link"):

@@ -25,7 +25,6 @@ from fnmatch import fnmatchcase
 
 import numpy as np
 
-from ..core.rounding import U as _U
 from ..errors import MassPropsError, OptionError
 from .check import declared_validity
 from .model import Decimal, Inertial, rotation_rpy
@@ -38,7 +37,8 @@ _MARGIN_ULPS = 8
 
 @dataclass
 class WriteResult:
-    """The new file's bytes and what was written (one dict per link) or left alone (with the reason)."""
+    """The new file's bytes and what was written (one dict per link) or left alone (with the reason, and
+    ``failed`` when the link was asked for but could not be written)."""
 
     data: bytes
     written: list = field(default_factory=list)
@@ -177,6 +177,30 @@ def _selected(analysis, link, links_glob, all_links):
     return entry, None
 
 
+def _planned(model, link, entry, frame, data, newline, path):
+    """``(edit, record)`` for one selected link: the bytes to put in, and what was written (nudge and all)."""
+    center, rotation, tensor, rpy = _values(entry, frame)
+    bound = entry["error"]["inertia_com"]
+    tensor, delta = nudged(tensor, bound)
+    mass = entry["mass"]
+    validity = declared_validity(_read_back(mass, center, tensor, rotation, rpy), massless_allowed=False)
+    if not validity.valid:
+        raise MassPropsError(f"link {link.name!r}: the values to write fail the checks: "
+                             f"{'; '.join(validity.problems)}", path=path)
+
+    def text_for(indent, unit):
+        return _element_text(model, mass, center, tensor, rotation, rpy, indent, unit, newline)
+
+    edit = (*_edit(model, link, text_for, data, newline), link.name)
+    record = {"link": link.name, "before": entry["status"], "mass": mass, "center_of_mass": list(center),
+              "frame": frame, "nudge": delta, "warnings": list(entry.get("warnings") or [])}
+    if delta:
+        record["nudge_note"] = (f"moments raised by {delta:.3g} kg·m² ({delta / math.ulp(np.abs(tensor).max()):.0f} "
+                                "ulp) so that A + B >= C survives rounding; "
+                                + ("within" if delta <= bound else "beyond") + f" the error bound {bound:.2g}")
+    return edit, record
+
+
 def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="link"):
     """Compute and write the selected links' inertials; returns a :class:`WriteResult` (nothing is saved here).
 
@@ -208,37 +232,19 @@ def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="
         entry, reason = _selected(analysis, link, links_glob, all_links)
         if entry is None:
             if reason:
-                result.skipped.append({"link": link.name, "reason": reason})
+                result.skipped.append({"link": link.name, "reason": reason, "failed": reason.startswith("not ")})
             continue
-        center, rotation, tensor, rpy = _values(entry, frame)
-        bound = entry["error"]["inertia_com"]
-        tensor, delta = nudged(tensor, bound)
-        mass = entry["mass"]
-        inertial = _read_back(mass, center, tensor, rotation, rpy)
-        validity = declared_validity(inertial, massless_allowed=False)
-        if not validity.valid:
-            raise MassPropsError(f"link {link.name!r}: the values to write fail the checks: "
-                                 f"{'; '.join(validity.problems)}", path=path)
-
-        def text_for(indent, unit, _m=mass, _c=center, _t=tensor, _r=rotation, _rpy=rpy):
-            return _element_text(model, _m, _c, _t, _r, _rpy, indent, unit, newline)
-
         try:
-            edits.append((*_edit(model, link, text_for, data, newline), link.name))
+            edit, record = _planned(model, link, entry, frame, data, newline, path)
         except MassPropsError as exc:
-            result.skipped.append({"link": link.name, "reason": exc.problem})
+            result.skipped.append({"link": link.name, "reason": exc.problem, "failed": True})
             continue
-        record = {"link": link.name, "before": entry["status"], "mass": mass, "center_of_mass": list(center),
-                  "frame": frame, "nudge": delta, "warnings": list(entry.get("warnings") or [])}
-        if delta:
-            record["nudge_note"] = (f"moments raised by {delta:.3g} kg·m² ({delta / math.ulp(np.abs(tensor).max()):.0f} "
-                                    f"ulp) so that A + B >= C survives rounding; "
-                                    + ("within" if delta <= bound else "beyond") + f" the error bound {bound:.2g}")
+        edits.append(edit)
         result.written.append(record)
     pieces, cursor = [], 0
-    for start_, end, new, name in sorted(edits):
-        pieces += [data[cursor:start_], new]
-        result.spans.append((start_, end, len(new), name))
+    for begin, end, new, name in sorted(edits):
+        pieces += [data[cursor:begin], new]
+        result.spans.append((begin, end, len(new), name))
         cursor = end
     pieces.append(data[cursor:])
     result.data = b"".join(pieces)

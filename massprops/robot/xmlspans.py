@@ -1,4 +1,4 @@
-"""Byte offsets of the elements of an XML file, in document order, and the file parsed with them.
+"""XML for the readers: the file parsed with each element's byte offsets, and small shared helpers.
 
 :mod:`massprops.robot.write` replaces the bytes of single elements and must
 leave every other byte as it was, so it needs to know where each element
@@ -13,9 +13,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from .model import RobotFormatError
+from .model import Decimal, RobotFormatError
 
-__all__ = ["Span", "parse_with_spans", "element_spans"]
+__all__ = ["Span", "parse_with_spans", "element_spans", "parse_numbers", "line_of", "the_shape"]
 
 _NAME = rb"[A-Za-z_:][-\w:.]*"
 _START = re.compile(rb"<(" + _NAME + rb")((?:\s+" + _NAME + rb"\s*=\s*(?:\"[^\"]*\"|'[^']*'))*)\s*(/?)>")
@@ -147,3 +147,25 @@ def parse_with_spans(path, *, data=None):
             _local(s.tag) != _local(e.tag) for s, e in zip(spans, elements)):
         return root, None, data
     return root, dict(zip(elements, spans)), data
+
+
+def parse_numbers(text, count, *, what, path=None):
+    """``count`` Decimals from whitespace-separated ``text`` (RobotFormatError otherwise)."""
+    tokens = (text or "").split()
+    if len(tokens) != count:
+        raise RobotFormatError(f"{what}: expected {count} numbers, got {text!r}", path=path)
+    return [Decimal.parse(t, what=what, path=path) for t in tokens]
+
+
+def line_of(element):
+    """`` (line N)`` for messages, or nothing when lxml does not know the line."""
+    return f" (line {element.sourceline})" if element.sourceline else ""
+
+
+def the_shape(element, where, path):
+    """The one shape element inside ``element``'s ``<geometry>``."""
+    holder = element.find("geometry")
+    shapes = [] if holder is None else [c for c in holder if isinstance(c.tag, str)]
+    if len(shapes) != 1:
+        raise RobotFormatError(f"{where}: <geometry> must hold one shape, found {len(shapes)}", path=path)
+    return shapes[0]
