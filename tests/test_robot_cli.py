@@ -214,3 +214,35 @@ def test_props_on_a_mesh_imports_no_robot_package(tmp_path):
     done = subprocess.run([sys.executable, "-c", probe, str(path)], capture_output=True, text=True, check=True,
                           env={**os.environ, "PYTHONPATH": os.path.dirname(os.path.dirname(__file__))})
     assert json.loads(done.stdout) == [0, []]
+
+
+def test_geometry_choice_and_repair(tmp_path):
+    from massprops.io import obj
+    from massprops.validation import solids
+    box = solids.box((0.1, 0.1, 0.1))
+    faces = box.faces.copy()
+    faces[0] = faces[0][::-1]                       # one face wound the wrong way: refused unless --repair
+    obj.write(tmp_path / "twisted.obj", box.vertices, faces)
+    path = tmp_path / "r.urdf"
+    path.write_text("""<robot name="r"><link name="a">
+      <visual><geometry><box size="1 1 1"/></geometry></visual>
+      <collision><geometry><mesh filename="twisted.obj"/></geometry></collision></link></robot>""")
+
+    def link(*options):
+        result = run("robot", "props", path, "--density", "1", "--format", "json", *options)
+        return json.loads(result.stdout)[0]["links"][0]
+
+    assert link()["status"] == "error" and "--repair" in link()["message"]
+    repaired = link("--repair")
+    assert repaired["status"] == "ok" and repaired["volume"] == pytest.approx(0.001, rel=1e-14)
+    assert link("--geometry", "visual")["volume"] == 1.0
+    assert link("--geometry", "auto", "--repair")["volume"] == pytest.approx(0.001, rel=1e-14)
+
+
+def test_xacro_without_the_package_is_one_line(tmp_path, monkeypatch):
+    path = tmp_path / "r.urdf.xacro"
+    path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="a"/></robot>')
+    monkeypatch.setitem(sys.modules, "xacro", None)
+    result = run("robot", "check", path)
+    assert result.exit_code == 1
+    assert result.output.strip().count("\n") == 0 and 'pip install "massprops[robot]"' in result.output

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..core.rounding import U as _U
 from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError
-from ..properties import ErrorBounds, MassProperties
+from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import PRIMITIVES
 
 __all__ = ["NO_VOLUME", "GeometryResult", "geometry_properties", "primitive_properties", "primitive_bounds", "OnOpen",
@@ -262,6 +262,12 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
         raise MassPropsError(f"{geometry.where}: mesh scale {tuple(map(float, scale))} has a zero or non-finite "
                              "factor", path=path, fix="give a non-zero scale in every axis")
     entry = _read_checked(path, repair) if geometry.mesh is None else _checked(geometry.mesh, repair=repair)
+    # A mesh file that declares its length unit (Collada's <unit meter=...>) is in that unit: to metres first,
+    # then the description's scale, as rviz and Gazebo read it.
+    unit = getattr(entry.mesh, "unit", None)
+    if unit is not None and geometry.stretch is None:
+        factor = unit_factor(unit)
+        scale = tuple((s if isinstance(s, Fraction) else Fraction(float(s))) * factor for s in scale)
     if entry.problem is not None:
         return _open_mesh(geometry, path, density, entry.problem, entry.mesh, scale, on_open)
     moments, mesh = entry.moments, entry.mesh
