@@ -259,8 +259,8 @@ def mistyped(written, expected, tolerance):
     if power and abs(ratio / 10.0 ** power - 1) <= tolerance:
         return f"its decimal point has slipped by {power:+d} place(s)"
     (a, ea), (b, eb) = _leading_digits(written), _leading_digits(expected)
-    if ea != eb or (written > 0) != (expected > 0) or _significant(written) < 3:
-        return None         # a value written with one or two digits is a guess, not a transcription
+    if ea != eb or (written > 0) != (expected > 0) or min(_significant(written), _significant(expected)) < 3:
+        return None         # a value of one or two digits is a guess or a round number, not a transcription
     differ = [k for k in range(len(a)) if a[k] != b[k]]
     if len(differ) == 1:
         return "one digit is wrong"

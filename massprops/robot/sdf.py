@@ -37,11 +37,11 @@ from ..errors import MassPropsError
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
+from .geometry import NO_VOLUME
 from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 
 __all__ = ["read_sdf", "parse_pose"]
 
-_NO_VOLUME = ("plane", "heightmap", "polyline", "image", "empty")
 _MODEL_FRAME = "__model__"
 
 
@@ -243,7 +243,7 @@ def _geometry(element, role, index, frames, link_name, scope, path, link_density
             scale = tuple(d.exact for d in parse_numbers(shape.findtext("scale"), 3, what=f"{where} scale",
                                                          path=path))
         return Geometry("mesh", uri=uri, scale=scale, base=os.path.dirname(os.path.abspath(path)), **base)
-    if kind in _NO_VOLUME:
+    if kind in NO_VOLUME:
         return Geometry(kind, **base)
     raise RobotFormatError(f"{where}: unknown geometry <{kind}>", path=path)
 

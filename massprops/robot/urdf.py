@@ -25,6 +25,7 @@ from ..errors import MassPropsError, OptionError
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
+from .geometry import NO_VOLUME
 from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 
 __all__ = ["read_urdf", "expand_xacro"]
@@ -95,6 +96,8 @@ def _geometry(element, role, index, path):
             raise RobotFormatError(f"{where}: <mesh> has no filename", path=path)
         return Geometry("mesh", role, name or f"{role}[{index}]", pose, uri=uri,
                         scale=_scale(shape.get("scale"), where, path), where=where)
+    elif kind in NO_VOLUME:                 # pybullet's <plane normal=...>: no volume, left out with a warning
+        return Geometry(kind, role, name or f"{role}[{index}]", pose, where=where)
     else:
         raise RobotFormatError(f"{where}: unknown geometry <{kind}>", path=path,
                                fix="use box, cylinder, sphere, capsule or mesh")
