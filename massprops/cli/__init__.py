@@ -22,6 +22,7 @@ COMMANDS = {
     "check": ("check", "check"),
     "accuracy": ("accuracy", "accuracy"),
     "spin": ("spin", "spin"),
+    "robot": ("robot", "robot"),
 }
 
 
