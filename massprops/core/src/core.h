@@ -73,8 +73,8 @@ typedef struct MeshArrays MeshArrays;
 
 /* Welding on several threads (weld.c): a PointSource fills `points` (count x 3 doubles) with
  * points [first, first + count) of the input; 0, or -1 with a failure.  weld_source welds
- * `count` points (whole triangles) into out->faces (allocated by the caller, count entries)
- * and sets out->vertices, out->n: the same numbering whatever the thread count. */
+ * `count` points (whole triangles) into out->faces, out->m and out->vertices, out->n: the same
+ * numbering whatever the thread count. */
 #define MAX_RANGES 8
 typedef int (*PointSource)(void *context, int64_t first, int64_t count, double *points, Failure *failure);
 int weld_source(PointSource source, void *context, int64_t count, int threads, MeshArrays *out, Failure *failure);

@@ -58,6 +58,29 @@ static void scale_block(void *arg, int64_t block)
             w->scaled[3 * v + i] = scaled(w->in->vertices[3 * v + i], w->in->reference[i], &w->scaling);
 }
 
+void *kernel_start(const KernelInput *in, KernelResult *out, Scaling *scaling, int64_t *blocks, size_t block_size,
+                   Failure *failure)
+{
+    void *results;
+    *blocks = (in->m + KERNEL_BLOCK - 1) / KERNEL_BLOCK;
+    memset(out, 0, sizeof *out);
+    out->bad_face = -1;
+    scaling_init(scaling, in->scale_exp);
+    results = malloc((size_t)(*blocks > 0 ? *blocks : 1) * block_size);
+    if (!results)
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+    return results;
+}
+
+int kernel_bad_face(const KernelResult *out, Failure *failure)
+{
+    if (out->bad_face < 0)
+        return 0;
+    fail(failure, ERR_INDEX, "re-export the mesh", "a face refers to a vertex that does not exist (face %lld)",
+         (long long)out->bad_face);
+    return -1;
+}
+
 void scaling_init(Scaling *s, int scale_exp)
 {
     s->two = -scale_exp > 1023;            /* 2**-scale_exp would overflow: two exact steps */
@@ -284,19 +307,13 @@ static double largest(const double *values, int count)
 
 int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
 {
-    int64_t blocks = (in->m + KERNEL_BLOCK - 1) / KERNEL_BLOCK, b;
+    int64_t blocks, b;
     Work w = {in, {0}, NULL, NULL};
     ExactSum summed[SUMMED], plain[PLAIN];
     double g, sum2, abs_up, bound_up, r = in->radius, tiny, F[3], weight_max = 0.0;
     int q, l;
-    memset(out, 0, sizeof *out);
-    out->bad_face = -1;
-    scaling_init(&w.scaling, in->scale_exp);
-    w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
-    if (!w.blocks) {
-        fail(failure, ERR_MEMORY, NULL, "out of memory");
+    if (!(w.blocks = kernel_start(in, out, &w.scaling, &blocks, sizeof *w.blocks, failure)))
         return -1;
-    }
     w.scaled = malloc((size_t)(in->n > 0 ? in->n : 1) * 3 * sizeof(double));
     if (!w.scaled) {
         free(w.blocks);
@@ -328,11 +345,8 @@ int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
         }
     }
     free(w.blocks);
-    if (out->bad_face >= 0) {
-        fail(failure, ERR_INDEX, "re-export the mesh", "a face refers to a vertex that does not exist (face %lld)",
-             (long long)out->bad_face);
+    if (kernel_bad_face(out, failure) != 0)
         return -1;
-    }
     /* Each lane adds at most N = KERNEL_BLOCK / LANES terms per block, plainly (abs, bound)
      * or by Sum2 (the rest): plain sums of non-negative terms are within γ(N) of exact. */
     g = gamma_k(KERNEL_BLOCK / LANES);

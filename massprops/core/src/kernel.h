@@ -110,6 +110,13 @@ static inline void det_and_bound(const double a[3], const double b[3], const dou
     *products = (s0 + s1) + s2;
 }
 
+/* The start of a pass: `out` cleared, the scaling set, and one result per block of faces
+ * allocated (*blocks of them); NULL and a failure when memory ran out. */
+void *kernel_start(const KernelInput *in, KernelResult *out, Scaling *scaling, int64_t *blocks, size_t block_size,
+                   Failure *failure);
+/* The end of a pass: -1 and a failure if a face refers to a vertex that does not exist. */
+int kernel_bad_face(const KernelResult *out, Failure *failure);
+
 /* det[a b c] as a double-double from error-free products, and the permanent. */
 void det_double_double(const double a[3], const double b[3], const double c[3], double *hi, double *lo,
                        double *permanent);

@@ -132,19 +132,13 @@ static void dd_block(void *arg, int64_t block)
 
 int integrate_faces_dd(const KernelInput *in, KernelResult *out, Failure *failure)
 {
-    int64_t blocks = (in->m + KERNEL_BLOCK - 1) / KERNEL_BLOCK, b;
+    int64_t blocks, b;
     DdWork w = {in, {0}, NULL};
     ExactSum sums[D_SUMMED], abs_det, permanent;
     double det_term, r = in->radius, tiny, weight_max = 0.0, largest;
     int q;
-    memset(out, 0, sizeof *out);
-    out->bad_face = -1;
-    scaling_init(&w.scaling, in->scale_exp);
-    w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
-    if (!w.blocks) {
-        fail(failure, ERR_MEMORY, NULL, "out of memory");
+    if (!(w.blocks = kernel_start(in, out, &w.scaling, &blocks, sizeof *w.blocks, failure)))
         return -1;
-    }
     parallel_blocks(in->threads, blocks, dd_block, &w);
     for (q = 0; q < D_SUMMED; q++)
         exact_init(&sums[q]);
@@ -161,11 +155,8 @@ int integrate_faces_dd(const KernelInput *in, KernelResult *out, Failure *failur
             weight_max = w.blocks[b].weight_max;
     }
     free(w.blocks);
-    if (out->bad_face >= 0) {
-        fail(failure, ERR_INDEX, "re-export the mesh", "a face refers to a vertex that does not exist (face %lld)",
-             (long long)out->bad_face);
+    if (kernel_bad_face(out, failure) != 0)
         return -1;
-    }
     /* The per-block sums of |det| and of the permanents are plain: within γ(block) of exact. */
     out->abs_sum = exact_value(&abs_det) * (1.0 + 2.0 * gamma_k(KERNEL_BLOCK));
     tiny = (double)in->m * UNDERFLOW_ALLOWANCE * (1.0 + weight_max);

@@ -86,6 +86,19 @@ static PyObject *buffer_wrap(void *data, char format, Py_ssize_t itemsize, Py_ss
     return (PyObject *)b;
 }
 
+/* Two arrays of n doubles as a tuple of Buffers (taking ownership of both). */
+static PyObject *double_pair(double *first, double *second, Py_ssize_t n)
+{
+    PyObject *a = buffer_wrap(first, 'd', 8, n, 0), *b = a ? buffer_wrap(second, 'd', 8, n, 0) : NULL;
+    if (!a || !b) {
+        if (!a)
+            free(second);
+        Py_XDECREF(a);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", a, b);
+}
+
 /* ---- arguments ------------------------------------------------------------------------------ */
 
 enum { ARRAY_F64 = 1, ARRAY_F32 = 2, ARRAY_I32 = 4, ARRAY_I64 = 8 };
@@ -423,7 +436,7 @@ static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs
 
 static PyObject *core_tetra_determinants(PyObject *self, PyObject *args)
 {
-    PyObject *vertex_object, *tet_object, *reference, *det_buffer, *bound_buffer;
+    PyObject *vertex_object, *tet_object, *reference;
     Py_buffer vertices, tets;
     KernelInput in;
     Failure failure = {0};
@@ -453,19 +466,12 @@ static PyObject *core_tetra_determinants(PyObject *self, PyObject *args)
         free(bound);
         return PyErr_Format(PyExc_IndexError, "tetrahedron %lld refers to a node that does not exist", (long long)bad);
     }
-    det_buffer = buffer_wrap(det, 'd', 8, (Py_ssize_t)in.m, 0);
-    bound_buffer = buffer_wrap(bound, 'd', 8, (Py_ssize_t)in.m, 0);
-    if (!det_buffer || !bound_buffer) {
-        Py_XDECREF(det_buffer);
-        Py_XDECREF(bound_buffer);
-        return NULL;
-    }
-    return Py_BuildValue("(NN)", det_buffer, bound_buffer);
+    return double_pair(det, bound, (Py_ssize_t)in.m);
 }
 
 static PyObject *core_shell_determinants(PyObject *self, PyObject *args)
 {
-    PyObject *vertex_object, *face_object, *label_object, *reference, *sum_buffer, *error_buffer;
+    PyObject *vertex_object, *face_object, *label_object, *reference;
     Py_buffer vertices, faces, labels;
     KernelInput in;
     Failure failure = {0};
@@ -500,14 +506,7 @@ static PyObject *core_shell_determinants(PyObject *self, PyObject *args)
         free(errors);
         return raise_failure(&failure, NULL);
     }
-    sum_buffer = buffer_wrap(sums, 'd', 8, shells, 0);
-    error_buffer = buffer_wrap(errors, 'd', 8, shells, 0);
-    if (!sum_buffer || !error_buffer) {
-        Py_XDECREF(sum_buffer);
-        Py_XDECREF(error_buffer);
-        return NULL;
-    }
-    return Py_BuildValue("(NN)", sum_buffer, error_buffer);
+    return double_pair(sums, errors, shells);
 }
 
 static PyObject *core_bounding_box(PyObject *self, PyObject *args)

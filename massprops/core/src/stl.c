@@ -86,19 +86,8 @@ static int binary_source(void *context, int64_t first, int64_t count, double *po
 static int read_binary(int fd, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
     BinaryFile file = {fd, count};
-    out->m = count;
     out->binary = 1;
-    out->faces = malloc((size_t)count * 3 * sizeof(index_t));
-    if (!out->faces) {
-        fail(failure, ERR_MEMORY, NULL, "out of memory for %lld triangles", (long long)count);
-        return -1;
-    }
-    if (weld_source(binary_source, &file, 3 * count, threads, out, failure) != 0) {
-        free(out->faces);
-        out->faces = NULL;
-        return -1;
-    }
-    return 0;
+    return weld_source(binary_source, &file, 3 * count, threads, out, failure);
 }
 
 /* ---- ASCII ----------------------------------------------------------------------------- */

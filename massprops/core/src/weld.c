@@ -270,6 +270,12 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
     RangeWork work;
     int t;
     int64_t k, j;
+    out->m = count / 3;
+    out->faces = malloc((size_t)(count > 0 ? count : 3) * sizeof(index_t));
+    if (!out->faces) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory for %lld triangles", (long long)(count / 3));
+        return -1;
+    }
     memset(&work, 0, sizeof work);
     work.source = source;
     work.context = context;
@@ -304,6 +310,8 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
     if (failure->kind != ERR_NONE) {
         if (work.welders[0].slots)
             welder_free(&work.welders[0]);
+        free(out->faces);
+        out->faces = NULL;
         return -1;
     }
     out->n = work.welders[0].count;
@@ -357,18 +365,7 @@ static int corner_source(void *context, int64_t first, int64_t count, double *po
 int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure)
 {
     CornerArray array = {corners, single};
-    out->m = m;
-    out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
-    if (!out->faces) {
-        fail(failure, ERR_MEMORY, NULL, "out of memory");
-        return -1;
-    }
-    if (weld_source(corner_source, &array, 3 * m, threads, out, failure) != 0) {
-        free(out->faces);
-        out->faces = NULL;
-        return -1;
-    }
-    return 0;
+    return weld_source(corner_source, &array, 3 * m, threads, out, failure);
 }
 
 int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
