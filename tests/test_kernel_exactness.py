@@ -286,3 +286,28 @@ def test_slivers_around_the_centre_need_no_refinement():
         vertices = (mesh.vertices + offset).astype(np.float32).astype(np.float64)
         moments, _ = assert_bounds_cover(vertices, mesh.faces)
         assert moments.refined_faces == 0 and moments.reference[0] != 0.0
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), offsets, st.floats(1e-9, 1.0))
+def test_shell_and_tetrahedron_determinants_within_bounds(seed, offset, flatness):
+    """The signed volumes the checks decide signs with: each within its bound of exact, in the frame's units."""
+    from massprops.core import reference_frame, shell_determinants, shells, tetra_determinants
+    rng = np.random.default_rng(seed)
+    a = solids.regular_prism(int(rng.integers(3, 30)), 1.0, flatness)
+    b = solids.icosphere(1, 0.5)
+    mesh = solids.combine(a, type(b)(b.vertices + [3.0, 0.0, 0.0], b.faces).flipped())
+    vertices, faces = _posed(mesh, seed, (offset, 0.5, -offset))
+    labels, count = shells(faces, vertices.shape[0])
+    det_sum, det_error = shell_determinants(vertices, faces, labels, count)
+    reference, scale_exp = reference_frame(vertices)
+    frame = type("Frame", (), {"reference": reference, "scale_exp": scale_exp})
+    scaled = _scaled(frame, vertices)
+    for shell in range(count):
+        exact = sum(_det3(*(scaled[int(i)] for i in face)) for face in faces[labels == shell])
+        assert abs(Fraction(det_sum[shell]) - exact) <= Fraction(det_error[shell])
+    tets = rng.integers(0, vertices.shape[0], size=(40, 4))
+    det, bound = tetra_determinants(vertices, tets)
+    for k, (p0, p1, p2, p3) in enumerate(tets.tolist()):
+        e = [[scaled[p][i] - scaled[p0][i] for i in range(3)] for p in (p1, p2, p3)]
+        assert abs(Fraction(det[k]) - _det3(*e)) <= Fraction(bound[k])
