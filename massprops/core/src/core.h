@@ -36,6 +36,8 @@ typedef struct {
 } Growable;
 
 int grow_reserve(Growable *g, size_t bytes);   /* 0, or -1 when memory ran out */
+/* grow_reserve with its common case (room enough) inline */
+static inline int reserve(Growable *g, size_t bytes) { return g->size + bytes <= g->capacity ? 0 : grow_reserve(g, bytes); }
 void grow_free(Growable *g);
 
 /* Parallel loop over numbered blocks: fn(ctx, block) for block in [0, blocks), on up to

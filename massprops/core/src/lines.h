@@ -28,7 +28,7 @@ void lines_close(LineReader *r);
 /* 1 and the next line [*text, *text + *length), 0 at the end, -1 on failure. */
 int lines_next(LineReader *r, const char **text, size_t *length);
 
-static inline int is_space(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
+static inline int is_space(char c) { return c == ' ' || (c >= '\t' && c <= '\f' && c != '\n' && c != '\r'); }
 
 /* The next whitespace-separated word of [*p, end), or 0 when none is left (a '#' ends the words). */
 static inline int next_word(const char **p, const char *end, const char **word, const char **word_end)

@@ -53,7 +53,7 @@ static int vertex_line(ObjState *s, const char *p, const char *end, const char *
         cannot_read(s, text, end);
         return -1;
     }
-    if (grow_reserve(&s->vertices, sizeof point) != 0) {
+    if (reserve(&s->vertices, sizeof point) != 0) {
         fail(s->failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
@@ -125,7 +125,7 @@ static int face_line(ObjState *s, const char *p, const char *end, const char *te
         int64_t vertex = corner_vertex(s, word, word_end, text, end);
         if (vertex < 0)
             return -1;
-        if (grow_reserve(&s->corners, sizeof vertex) != 0) {
+        if (reserve(&s->corners, sizeof vertex) != 0) {
             fail(s->failure, ERR_MEMORY, NULL, "out of memory");
             return -1;
         }
@@ -138,7 +138,7 @@ static int face_line(ObjState *s, const char *p, const char *end, const char *te
              "line %lld: a face needs at least 3 vertices, this one has %lld", (long long)s->line, (long long)count);
         return -1;
     }
-    if (grow_reserve(&s->faces, (size_t)(count - 2) * 3 * sizeof(index_t)) != 0) {
+    if (reserve(&s->faces, (size_t)(count - 2) * 3 * sizeof(index_t)) != 0) {
         fail(s->failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
@@ -184,7 +184,7 @@ static int read_statements(ObjState *s, LineReader *r)
             joined.size = 0;
             do {                                         /* copy: the reader reuses its buffer */
                 size_t part = (size_t)(backslash - text);
-                if (grow_reserve(&joined, part + 1) != 0) {
+                if (reserve(&joined, part + 1) != 0) {
                     fail(s->failure, ERR_MEMORY, NULL, "out of memory");
                     status = -1;
                     break;
@@ -194,7 +194,7 @@ static int read_statements(ObjState *s, LineReader *r)
                 joined.size += part + 1;
                 status = lines_next(r, &text, &length);
             } while (status == 1 && (backslash = continuation(text, length)) != NULL);
-            if (status == 1 && grow_reserve(&joined, length) == 0) {
+            if (status == 1 && reserve(&joined, length) == 0) {
                 memcpy(joined.data + joined.size, text, length);
                 joined.size += length;
             }

@@ -137,7 +137,7 @@ static int read_ascii(int fd, int64_t size, MeshArrays *out, Failure *failure)
                      (long long)r.line, (int)(end - shown < 60 ? end - shown : 60), shown);
                 break;
             }
-            if (grow_reserve(&faces, sizeof(index_t)) != 0 || (vertex = weld_point64(&w, point)) < 0) {
+            if (reserve(&faces, sizeof(index_t)) != 0 || (vertex = weld_point64(&w, point)) < 0) {
                 fail(failure, ERR_MEMORY, NULL, "out of memory");
                 break;
             }

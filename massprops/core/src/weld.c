@@ -71,7 +71,7 @@ int welder_init(Welder *w, int64_t expected)
         w->recent[k].vertex = -1;
     while (bits < 40 && ((int64_t)1 << bits) < 2 * expected)
         bits++;
-    if (grow_reserve(&w->vertices, (size_t)(expected > 0 ? expected : 16) * 3 * sizeof(double)) != 0)
+    if (reserve(&w->vertices, (size_t)(expected > 0 ? expected : 16) * 3 * sizeof(double)) != 0)
         return -1;
     return resize(w, bits);
 }
@@ -103,7 +103,7 @@ static inline int64_t insert(Welder *w, const uint64_t key[3], uint64_t h)
         }
         slot = (slot + 1) & w->mask;
     }
-    if (w->count >= 0xFFFFFFFELL || grow_reserve(&w->vertices, 3 * sizeof(double)) != 0)
+    if (w->count >= 0xFFFFFFFELL || reserve(&w->vertices, 3 * sizeof(double)) != 0)
         return -1;
     added = (double *)(w->vertices.data + w->vertices.size);
     memcpy(added, key, 3 * sizeof(double));       /* the canonical bits: -0.0 stored as +0.0 */
