@@ -85,11 +85,19 @@ static int exact_decimal(uint64_t mantissa, int64_t exponent, double *value)
     if (exponent >= 0 && exponent <= 19)
         return round_scaled((u128)mantissa * exact_powers[exponent], 0, 0, value);
     if (exponent < 0 && exponent >= -19) {
-        uint64_t divisor = exact_powers[-exponent];
-        /* shift so that the quotient has 64 bits: enough for 53 and a rounding bit */
-        int shift = 64 + bit_length(divisor) - bit_length(mantissa);
-        u128 numerator = (u128)mantissa << shift, quotient = numerator / divisor;
-        return round_scaled(quotient, -shift, numerator != quotient * divisor, value);
+        uint64_t divisor = exact_powers[-exponent], quotient, remainder;
+        /* shift so that the quotient has 63 or 64 bits: enough for 53, a rounding bit and more */
+        int shift = 63 + bit_length(divisor) - bit_length(mantissa);
+        u128 numerator = (u128)mantissa << shift;
+#if defined(__x86_64__) && defined(__GNUC__)
+        /* one 128-by-64-bit division: the quotient fits in 64 bits by the choice of shift */
+        uint64_t high = (uint64_t)(numerator >> 64), low = (uint64_t)numerator;
+        __asm__("divq %4" : "=a"(quotient), "=d"(remainder) : "a"(low), "d"(high), "rm"(divisor) : "cc");
+#else
+        quotient = (uint64_t)(numerator / divisor);
+        remainder = (uint64_t)(numerator - (u128)quotient * divisor);
+#endif
+        return round_scaled(quotient, -shift, remainder != 0, value);
     }
     return -1;
 }
