@@ -28,6 +28,7 @@ def available():
 def load(name):
     spec = importlib.util.spec_from_file_location(f"bench_{name}", os.path.join(HERE, f"bench_{name}.py"))
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module           # so that worker processes can unpickle its functions
     spec.loader.exec_module(module)
     return module
 
