@@ -269,7 +269,7 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
 {
     RangeWork work;
     int t;
-    int64_t k, j;
+    int64_t k;
     out->m = count / 3;
     out->faces = malloc((size_t)(count > 0 ? count : 3) * sizeof(index_t));
     if (!out->faces) {
@@ -288,18 +288,13 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
             *failure = work.failures[t];
     for (t = 1; t < work.ranges && failure->kind == ERR_NONE; t++) {
         Welder *w = &work.welders[t];
-        int64_t *number = malloc((size_t)(w->count > 0 ? w->count : 1) * sizeof *number);
-        const double *stored = (const double *)w->vertices.data;
-        if (!number) {
+        index_t *number = malloc((size_t)(w->count > 0 ? w->count : 1) * sizeof *number);
+        if (!number || weld_block(&work.welders[0], (const double *)w->vertices.data, w->count, number) != 0) {
+            free(number);
             fail(failure, ERR_MEMORY, NULL, "out of memory");
             break;
         }
-        for (j = 0; j < w->count; j++)
-            if ((number[j] = weld_point64(&work.welders[0], stored + 3 * j)) < 0) {
-                fail(failure, ERR_MEMORY, NULL, "out of memory");
-                break;
-            }
-        for (k = range_start(&work, t); k < range_start(&work, t + 1) && failure->kind == ERR_NONE; k++)
+        for (k = range_start(&work, t); k < range_start(&work, t + 1); k++)
             work.out[k] = number[work.out[k]];
         free(number);
         welder_free(w);
