@@ -15,6 +15,9 @@
 #include "core.h"
 
 #include <locale.h>
+#if defined(__APPLE__)
+#include <xlocale.h>                         /* strtod_l, newlocale */
+#endif
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
