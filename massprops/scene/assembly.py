@@ -24,7 +24,7 @@ import numpy as np
 
 from ..compute import QUANTITIES, checked_moments
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, MeshFormatError, MeshReadError
+from ..errors import MassPropsError, MeshFormatError
 from ..frames import Pose, matmul, matvec, rotate_inertia
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import Scene
@@ -65,18 +65,19 @@ class SceneResult:
     elapsed_s: float
 
 
-def load_scene(path, *, density=None, unit=None):
+def load_scene(path, *, density=None, unit=None, max_unpacked=None):
     """Read a scene: ``.toml`` (massprops's format) or a GLB/glTF/3MF scene graph.
 
     ``density`` is the default for parts that give none; ``unit`` overrides the
-    report's unit.
+    report's unit; ``max_unpacked`` is the size a 3MF may unpack to (see
+    :func:`massprops.io.read`).
     """
+    from ..io.inputs import check_input
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise MeshReadError("no such scene file", path=path, fix="check the path")
+    check_input(path, what="scene file")
     if path.lower().endswith(SCENE_EXTENSIONS):
         from .graph import graph_scene
-        scene = graph_scene(path, density)
+        scene = graph_scene(path, density, max_unpacked=max_unpacked)
     elif path.lower().endswith(".toml"):
         from .toml_file import toml_scene
         scene = toml_scene(path, density)
@@ -86,8 +87,10 @@ def load_scene(path, *, density=None, unit=None):
     return replace(scene, report=replace(scene.report, unit=unit)) if unit else scene
 
 
-def compute_scene(scene, *, repair=False):
+def compute_scene(scene, *, repair=False, max_unpacked=None):
     """Mass properties of every part and of the assembly, computing only what the report asks.
+
+    ``max_unpacked``: the size an archive among the meshes may unpack to (see :func:`massprops.io.read`).
 
     Returns
     -------
@@ -96,7 +99,7 @@ def compute_scene(scene, *, repair=False):
     start = time.perf_counter()
     request = scene.report
     order = request.order
-    records = _integrate_meshes(scene, order, repair)
+    records = _integrate_meshes(scene, order, repair, max_unpacked)
     wanted = request.quantities | ({"principal"} if request.principal else set())
     cache, local, which = {}, [], []
     for part in scene.parts:
@@ -127,7 +130,7 @@ def compute_scene(scene, *, repair=False):
                        time.perf_counter() - start)
 
 
-def _integrate_meshes(scene, order, repair):
+def _integrate_meshes(scene, order, repair, max_unpacked):
     """Read each distinct mesh once and integrate each surface once; a failure names the first part using it.
 
     A volume mesh is only read here: its integrals depend on the part's cell
@@ -143,7 +146,7 @@ def _integrate_meshes(scene, order, repair):
         path = source if isinstance(source, str) else part.mesh
         began = time.perf_counter()
         with _naming(part, path):
-            mesh = read(source) if isinstance(source, str) else source
+            mesh = read(source, max_unpacked=max_unpacked) if isinstance(source, str) else source
             moments, checks, warnings = None, {}, ()
             if isinstance(mesh, TriangleMesh):
                 moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
@@ -159,7 +162,7 @@ def _naming(part, path):
     try:
         yield
     except MassPropsError as exc:
-        raise type(exc)(f"part {part.name!r}: {exc.problem}", path=exc.path or path, fix=exc.fix) from None
+        raise exc.with_context(f"part {part.name!r}", path=path) from None
 
 
 def _local_properties(part, records, unit, wanted, repair):
