@@ -261,8 +261,8 @@ def failed_outcome(path, kind, detail, settings, output_format, timeout=None):
         message = (f"timed out after {timeout:g} s — rerun with {{resume}} and a larger {{timeout=SECONDS}} "
                    "(0 for none), or look at it with `massprops props FILE`")
     else:
-        message = (f"the worker process died computing this file, twice ({detail}) — rerun with {{resume}} to "
-                   "try again; `massprops props FILE` shows what fails")
+        message = (f"the worker process died computing this file, each time it was tried ({detail}) — rerun "
+                   "with {resume} to try again; `massprops props FILE` shows what fails")
     message = _one_line(render_options(message, settings.option_style))
     return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), kind)
 

@@ -12,6 +12,7 @@ import importlib
 import importlib.util
 import os
 import sys
+import warnings
 
 import click
 
@@ -85,3 +86,6 @@ def main():
     Inertia tensors are J = ∫ (sᵀs I − s sᵀ) dm (off-diagonals are the tensor's
     own, J_xy = −∫ x y dm); a pose maps local x' to global x = A x' + t.
     """
+    # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
+    if not os.environ.get("MASSPROPS_DEBUG"):
+        warnings.filterwarnings("ignore", category=RuntimeWarning)

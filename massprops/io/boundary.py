@@ -22,7 +22,7 @@ _LONGEST_REASON = 240
 
 def _said(*streams):
     """What a reader printed, as one short line (blank lines dropped)."""
-    lines = [line.strip() for stream in streams for line in stream.getvalue().splitlines()]
+    lines = [line.strip().removeprefix("Error: ") for stream in streams for line in stream.getvalue().splitlines()]
     return "; ".join(line for line in lines if line)
 
 

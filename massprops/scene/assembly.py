@@ -24,7 +24,7 @@ import numpy as np
 
 from ..compute import QUANTITIES, checked_moments
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, MeshFormatError
+from ..errors import MassPropsError, MeshFormatError, MeshGeometryError
 from ..frames import Pose, matmul, matvec, rotate_inertia
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import Scene
@@ -184,7 +184,11 @@ def _local_properties(part, records, unit, wanted, repair):
         moments = record.moments
         if part.stretch is not None:
             from .graph import stretched_area2, stretched_moments
-            moments = stretched_moments(moments, part.stretch)
+            try:
+                moments = stretched_moments(moments, part.stretch)
+            except OverflowError:
+                raise MeshGeometryError("its node's scale takes the part's moments beyond double precision",
+                                        fix="export the scene with moderate scales") from None
             moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
                               if "surface_area" in wanted else 0.0)
         return MassProperties.from_moments(moments, density=part.density, mass=part.mass, unit=unit,
@@ -222,6 +226,22 @@ def _combine(local, index, rotation, translation, unit):
     translation : ndarray, shape (n, 3)
         Output units.
     """
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = _summed(local, index, rotation, translation, unit)
+    values = [total.volume, total.mass, total.surface_area, total.error.mass, total.error.center_of_mass,
+              total.error.inertia_com]
+    for array in (total.center_of_mass, total.inertia_com):
+        values += [] if array is None else np.ravel(array).tolist()
+    if not all(map(math.isfinite, values)):
+        reach = float(np.abs(translation).max()) if translation.size else 0.0
+        raise MeshGeometryError(f"the assembly's totals overflow double precision (parts are placed up to "
+                                f"{reach:.3g} from the origin)",
+                                fix="place the parts nearer the origin, or give them in a larger length unit")
+    return total
+
+
+def _summed(local, index, rotation, translation, unit):
+    """:func:`_combine`'s sums, which may overflow (checked by the caller)."""
     def per_instance(get):
         return np.array([get(p) for p in local], dtype=float)[index]
 

@@ -72,11 +72,16 @@ def placement_poses(linear, translation, *, path=None):
         ``A`` a proper rotation (polar decomposition, a reflection moved into
         ``P``); ``P`` None where ``L`` is already a rotation to rounding.
     """
-    defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(linear)
+    with np.errstate(over="ignore", invalid="ignore"):
+        defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+        det = np.linalg.det(linear)
     if not np.all(np.isfinite(linear)) or np.any(det == 0):
         raise MeshGeometryError("a node's transform is singular or not finite", path=path,
                                 fix="give every instance a non-zero scale")
+    if not np.all(np.isfinite(det)) or not np.all(np.isfinite(defect)):
+        raise MeshGeometryError("a node's transform scales volumes beyond double precision "
+                                f"(scale up to {float(np.abs(linear).max()):.3g})", path=path,
+                                fix="export the scene with moderate scales (meshes in the units they are used in)")
     rigid = (defect <= 16 * _U) & (det > 0)
     out = []
     for k in range(linear.shape[0]):
