@@ -152,8 +152,9 @@ def to_json(value):
 def significant(x, bound=None, digits=None):
     """``x`` as text with the digits that are significant given the absolute ``bound``.
 
-    The last digit shown is the first one the bound can change; a value no
-    larger than its bound prints as ``0``.  ``digits`` overrides (that many
+    The last digit shown is at the bound's power of ten rounded up, so the
+    digits shown are within the bound of the exact value (the last one to
+    rounding); a value no larger than its bound prints as ``0``.  ``digits`` overrides (that many
     significant digits); without a bound, 15.  None (a value beyond double
     precision) prints as ``n/a``.
     """
@@ -165,7 +166,7 @@ def significant(x, bound=None, digits=None):
         elif abs(x) <= bound:
             return "0"
         else:
-            digits = min(17, max(1, math.floor(math.log10(abs(x))) - math.floor(math.log10(bound)) + 1))
+            digits = min(17, max(1, math.floor(math.log10(abs(x))) - math.ceil(math.log10(bound)) + 1))
     return f"{x:.{digits}g}"
 
 

@@ -62,6 +62,24 @@ def test_a_link_to_dev_zero_is_refused(runner, tmp_path, box, name):
     assert "volume" in result.stdout
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes on this platform")
+def test_files_a_gltf_names_are_checked_too(tmp_path):
+    import json
+    gltf = {"asset": {"version": "2.0"}, "buffers": [{"uri": "part.bin", "byteLength": 36}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}], "scene": 0}
+    (tmp_path / "part.gltf").write_text(json.dumps(gltf))
+    os.mkfifo(tmp_path / "part.bin")                      # trimesh would block reading it
+    with pytest.raises(MeshFormatError, match="buffer 'part.bin': is a named pipe"):
+        massprops.mass_properties(tmp_path / "part.gltf")
+    os.remove(tmp_path / "part.bin")
+    (tmp_path / "part.bin").write_bytes(b"\0" * 12)
+    with pytest.raises(MeshFormatError, match="buffer 'part.bin' holds 12 bytes, the glTF says 36"):
+        massprops.mass_properties(tmp_path / "part.gltf")
+
+
 @pytest.mark.skipif(not hasattr(socket, "AF_UNIX"), reason="no Unix sockets on this platform")
 def test_a_socket_is_refused(tmp_path):
     path = tmp_path / "s.stl"

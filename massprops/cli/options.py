@@ -198,7 +198,7 @@ def pose_from_options(rotation, translate):
 
 def echo(text="", *, nl=True):
     """Write ``text`` to stdout; file names with undecodable bytes are written as those bytes."""
-    stream = click.get_text_stream("stdout")
+    stream = sys.stdout
     data = (text + ("\n" if nl else "")).encode(getattr(stream, "encoding", None) or "utf-8", "surrogateescape")
     buffer = getattr(stream, "buffer", None)
     if buffer is None:

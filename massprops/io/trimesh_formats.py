@@ -4,7 +4,8 @@ trimesh is asked not to process the mesh (no merging of close vertices, no
 removal of faces), so coordinates arrive as stored; a scene is flattened with
 its node transforms applied.  trimesh runs behind :mod:`massprops.io.boundary`;
 a PLY header's element counts are checked against the file's size first, so a
-header that lies is named as such.
+header that lies is named as such, and the files a glTF names must be regular
+files as long as it says.
 """
 
 from __future__ import annotations
@@ -13,13 +14,13 @@ import os
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..errors import MeshFormatError, MeshReadError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
-from .inputs import file_size_text
+from .inputs import check_input, file_size_text
 from .registry import register_format
 
-__all__ = ["load_trimesh", "read", "check_ply_header"]
+__all__ = ["load_trimesh", "read", "check_ply_header", "check_gltf_resources"]
 
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
               "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
@@ -35,7 +36,58 @@ def load_trimesh(path):
                               fix="pip install trimesh") from None
     if path.lower().endswith(".ply"):
         check_ply_header(path)
+    elif path.lower().endswith((".gltf", ".glb")):
+        check_gltf_resources(path)
     return third_party(path, "trimesh", trimesh.load, path, process=False, maintain_order=True)
+
+
+def _gltf_json(path):
+    """The JSON of a glTF, or of a GLB's first chunk; None if it cannot be read (trimesh then says why)."""
+    import json
+    import struct
+    with open(path, "rb") as handle:
+        data = handle.read()
+    if data[:4] == b"glTF":
+        if len(data) < 20:
+            return None
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:                       # "JSON"
+            return None
+        data = data[20:20 + length]
+    try:
+        document = json.loads(data)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    return document if isinstance(document, dict) else None
+
+
+def check_gltf_resources(path):
+    """Every file a glTF names (buffers, images) must be a regular file, and a buffer as long as declared.
+
+    trimesh reads them whole: a named pipe beside the file would block it, a
+    short buffer be read past.
+    """
+    document = _gltf_json(path)
+    if document is None:
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    for kind in ("buffers", "images"):
+        entries = document.get(kind)
+        for entry in entries if isinstance(entries, list) else []:
+            uri = entry.get("uri") if isinstance(entry, dict) else None
+            if not isinstance(uri, str) or uri.startswith("data:"):
+                continue
+            from urllib.parse import unquote
+            resource = os.path.join(folder, unquote(uri))
+            try:
+                info = check_input(resource)
+            except MeshReadError as exc:
+                raise MeshFormatError(f"{kind[:-1]} {uri!r}: {exc.problem}", path=path,
+                                      fix="export the glTF with its files beside it, or as one .glb") from None
+            declared = entry.get("byteLength")
+            if kind == "buffers" and isinstance(declared, int) and declared > info.st_size:
+                raise MeshFormatError(f"buffer {uri!r} holds {info.st_size} bytes, the glTF says {declared}",
+                                      path=path, fix="the buffer is truncated or not this glTF's; export again")
 
 
 def _ply_elements(header):

@@ -96,7 +96,7 @@ def as_mesh(source, *, argument="source"):
         if any(is_path(item) for item in source):
             raise ArgumentTypeError(f"{argument}: a list of paths; mass_properties takes one source",
                                     fix="call it once per file, [mass_properties(p) for p in paths], or use "
-                                        "massprops.batch.run_batch for a report over many files")
+                                        "massprops.batch.run.run_batch for a report over many files")
         if len(source) == 2:
             return mesh_from_arrays(*source, argument=argument)
     raise ArgumentTypeError(f"{argument}: expected {SOURCE_FORMS}; got {type(source).__name__}")
