@@ -144,8 +144,11 @@ _NUMBER_LIST = re.compile(r"\[\s*([-+0-9.eE,\s]+?)\s*\]")
 
 def to_json(value):
     """JSON text of a result object, or of an array of them (any iterable), indented, numeric arrays on one
-    line, floats at full precision."""
-    text = json.dumps(plain(value if isinstance(value, dict) else list(value)), indent=2, allow_nan=False)
+    line, floats at full precision; always valid JSON (non-finite values as null, see :func:`finite_or_null`)."""
+    value = plain(value if isinstance(value, dict) else list(value))
+    value = finite_or_null(value) if isinstance(value, dict) else [
+        finite_or_null(v) if isinstance(v, dict) else v for v in value]
+    text = json.dumps(value, indent=2, allow_nan=False)
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 

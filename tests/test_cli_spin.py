@@ -6,19 +6,10 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops.validation import solids
 from massprops.frames import Pose
-from massprops.io.stl import write_binary
 
 # A 1 × 2 × 3 box, density 1: mass 6, J' = diag(6.5, 5, 2.5) exactly.
 BOX_INERTIA = np.diag([6.5, 5.0, 2.5])
-
-
-@pytest.fixture
-def box(tmp_path):
-    path = tmp_path / "box.stl"
-    write_binary(path, solids.box((1.0, 2.0, 3.0)).triangles)
-    return str(path)
 
 
 def spin(runner, *args):

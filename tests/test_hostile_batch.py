@@ -69,6 +69,23 @@ def test_a_killed_worker_costs_its_file_and_resume_recomputes_it(tmp_path, monke
     assert sorted(entry["file"] for entry in _state(out)) == paths   # one state entry each, none stale
 
 
+def test_a_worker_that_dies_once_is_replaced_and_its_file_retried(tmp_path, monkeypatch):
+    paths = _parts(tmp_path, 4)
+    marker = tmp_path / "died-once"
+    real = batch.run_one
+
+    def dies_the_first_time(path, *args, **kwargs):
+        if path == paths[0] and not marker.exists():
+            marker.touch()
+            os._exit(9)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(batch, "run_one", dies_the_first_time)
+    summary = batch.run_batch(paths, output=str(tmp_path / "r.csv"), jobs=2)
+    assert marker.exists() and (summary.ok, summary.failed) == (4, 0)
+    assert [r["file"] for r in _rows(tmp_path / "r.csv")] == paths
+
+
 def test_a_stuck_file_times_out_alone(runner, tmp_path, monkeypatch):
     paths = _parts(tmp_path, 5)
     stuck = paths[1]
@@ -76,7 +93,7 @@ def test_a_stuck_file_times_out_alone(runner, tmp_path, monkeypatch):
 
     def hangs_on_one(path, *args, **kwargs):
         if path == stuck:
-            time.sleep(3600)
+            time.sleep(60)                    # without the time limit the test fails, after a minute
         return real(path, *args, **kwargs)
 
     monkeypatch.setattr(batch, "run_one", hangs_on_one)

@@ -17,15 +17,7 @@ import pytest
 import massprops
 from massprops.cli import main
 from massprops.errors import MeshFormatError, MeshGeometryError, MeshReadError, OutputError
-from massprops.io.stl import write_binary
 from massprops.validation import solids
-
-
-@pytest.fixture
-def box(tmp_path):
-    path = tmp_path / "box.stl"
-    write_binary(path, solids.box((1.0, 2.0, 3.0)).triangles)
-    return str(path)
 
 
 def _props(runner, *args):
