@@ -26,6 +26,7 @@ COMMANDS = {
     "check": ("check", "check"),
     "accuracy": ("accuracy", "accuracy"),
     "spin": ("spin", "spin"),
+    "robot": ("robot", "robot"),
 }
 
 

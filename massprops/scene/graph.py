@@ -102,8 +102,11 @@ def stretched_moments(moments, stretch):
     |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
     rationals).  The area is not a function of the moments; it is set by the
     caller from the faces (see :func:`stretched_area2`).
+
+    ``stretch`` holds floats, or Fractions for a map given in decimals (a
+    robot mesh's ``scale="0.001"`` is 1/1000 exactly, not the float nearest it).
     """
-    p = [[Fraction(float(x)) for x in row] for row in stretch]
+    p = [[x if isinstance(x, Fraction) else Fraction(float(x)) for x in row] for row in stretch]
     det = abs(p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
               + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]))
     norm = float(max(sum(abs(x) for x in row) for row in p))
