@@ -208,9 +208,10 @@ def test_degenerate_volume_meshes(tmp_path):
 
 
 def test_a_mesh_spanning_more_than_the_largest_double():
-    tetra = solids.tetrahedron(((-1e308, 0, 0), (1e308, 0, 0), (0, 1, 0), (0, 0, 1)))
+    vertices = [(-1e308, 0, 0), (1e308, 0, 0), (0, 1, 0), (0, 0, 1)]
+    faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
     with pytest.raises(MeshGeometryError, match="spans more than the largest double"):
-        massprops.mass_properties(tetra)
+        massprops.mass_properties((vertices, faces))
 
 
 # ---------------------------------------------------------------- output

@@ -102,9 +102,8 @@ def check_archive(path, info, max_unpacked=None):
     try:
         with zipfile.ZipFile(path) as archive:
             unpacked = sum(member.file_size for member in archive.infolist())
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
-        raise MeshFormatError(f"not a readable zip archive ({exc})", path=path,
-                              fix="the file is damaged or truncated; export it again") from None
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError):
+        return                  # not a zip after all (a binary STL header may start so): the reader judges
     limit = unpack_limit(info.st_size, max_unpacked)
     if unpacked > limit:
         ratio = unpacked / max(1, info.st_size)
