@@ -12,8 +12,8 @@ import re
 
 import numpy as np
 
-__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_text", "significant", "display_bounds",
-           "about_bound",            "csv_row", "CSV_COLUMNS", "to_csv"]
+__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_text", "significant", "vector_text",
+           "display_bounds", "about_bound", "csv_row", "CSV_COLUMNS", "to_csv"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "a1x,a1y,a1z,a2x,a2y,a2z,a3x,a3y,a3z,err_volume,err_inertia,elapsed_s").split(",")
@@ -173,7 +173,8 @@ def significant(x, bound=None, digits=None):
     return f"{x:.{digits}g}"
 
 
-def _vec(values, bound=None, digits=None):
+def vector_text(values, bound=None, digits=None):
+    """``[ a,  b, -c]``: each value as :func:`significant` shows it (``bound`` one for all, or one each)."""
     bounds = bound if isinstance(bound, list) else [bound] * len(values)
     texts = [significant(x, b, digits) for x, b in zip(values, bounds)]
     return "[" + ", ".join(t if t.startswith("-") else " " + t for t in texts) + "]"
@@ -239,7 +240,7 @@ def to_text(obj, *, digits=None):
 
     def row(label, value, bound=None, shown=None):
         if isinstance(value, list) and value and not isinstance(value[0], list):
-            text = _vec(value, bound, digits)
+            text = vector_text(value, bound, digits)
         else:
             text = significant(value, bound, digits) if isinstance(value, (int, float)) or value is None \
                 else str(value)
@@ -247,7 +248,7 @@ def to_text(obj, *, digits=None):
 
     def matrix(label, rows, bound, shown=None):
         for i, values in enumerate(rows):
-            lines.append(f"  {label if i == 0 else '':<22} {_vec(values, bound, digits)}"
+            lines.append(f"  {label if i == 0 else '':<22} {vector_text(values, bound, digits)}"
                          + (f"   ± {shown:.2g}" if shown is not None and i == 0 else ""))
 
     posed = obj["pose"]["rotation"] != np.eye(3).tolist() or any(obj["pose"]["translation"])
@@ -268,7 +269,7 @@ def to_text(obj, *, digits=None):
         if obj["degenerate"]:
             lines.append(f"  {'degenerate':<22} {obj['degenerate']} (axes chosen by the SPEC's rule)")
     for k, extra in enumerate(obj.get("inertia_about", [])):
-        matrix("about " + _vec(extra["point"]), extra["inertia"], bounds.get(f"inertia_about.{k}"))
+        matrix("about " + vector_text(extra["point"]), extra["inertia"], bounds.get(f"inertia_about.{k}"))
     if "angular_momentum" in obj:
         row("angular momentum", obj["angular_momentum"]["local"], bounds.get("angular_momentum"))
         row("  global axes", obj["angular_momentum"]["global"], bounds.get("angular_momentum"))

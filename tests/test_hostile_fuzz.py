@@ -2,11 +2,14 @@
 
 Format-generic: each seed file is written by an exporter and read back through
 whatever reader is registered for its extension, so the test exercises the
-readers of the day (numpy, C, trimesh, meshio).  A few hundred examples in all;
-a reader that hangs or allocates without bound would stall the run.
+readers of the day (numpy, C, trimesh, meshio).  A few hundred examples in all
+(``FUZZ_N=2000`` per format for a longer hunt); a reader that hangs or allocates
+without bound would stall the run.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pytest
@@ -72,7 +75,7 @@ def mutated(draw, data):
 @pytest.mark.parametrize("name", ["binary.stl", "ascii.stl", "part.obj", "binary.ply", "ascii.ply", "part.off",
                                   "part.glb", "part.3mf", "part.vtu", "part.msh"])
 def test_mutated_files_give_a_result_or_a_massprops_error(seeds, tmp_path, name):
-    @settings(max_examples=int(__import__("os").environ.get("FUZZ_N", "30")), deadline=None, database=None,
+    @settings(max_examples=int(os.environ.get("FUZZ_N", "30")), deadline=None, database=None,
               suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
     @given(data=st.data())
     def check(data):

@@ -136,11 +136,7 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
             while len(workers) < min(jobs, len(queue) + sum(len(w.held) for w in workers)):
                 workers.append(_start(context, compute, threads))
             for worker in workers:
-                while queue and len(worker.held) < _QUEUED:
-                    if not worker.held:
-                        worker.began = time.monotonic()
-                    worker.held.append(queue.popleft())
-                    worker.connection.send(worker.held[-1][0])
+                _feed(worker, queue)
             busy = [w for w in workers if w.held]
             limit = None if timeout is None else max(0.0, min(w.began for w in busy) + timeout - time.monotonic())
             wait([w.connection for w in busy] + [w.process.sentinel for w in busy], timeout=limit)
@@ -159,6 +155,18 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
                 pass
         for worker in workers:
             worker.stop(kill=sys.exc_info()[0] is not None)
+
+
+def _feed(worker, queue):
+    """Send ``worker`` files until it holds :data:`_QUEUED`; a worker found dead keeps them (then retried)."""
+    while queue and len(worker.held) < _QUEUED:
+        if not worker.held:
+            worker.began = time.monotonic()
+        worker.held.append(queue.popleft())
+        try:
+            worker.connection.send(worker.held[-1][0])
+        except OSError:
+            return                    # it died: its sentinel is ready, and _collect says so
 
 
 def _collect(worker, timeout):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..compute import Result
-from ..report import about_bound, display_bounds, result_dict, significant, to_text
+from ..report import about_bound, display_bounds, result_dict, to_text, vector_text
 
 __all__ = ["scene_dict", "scene_text", "scene_blocks"]
 
@@ -71,7 +71,7 @@ def scene_text(obj, *, digits=None):
             bound = None if origin is None else about_bound(block, bounds, origin, rotations=2)
             for i, row in enumerate(np.asarray(entry["inertia"]).tolist()):
                 label = f"in frame {entry['frame']}" if i == 0 else ""
-                lines.append(f"  {label:<22} [" + ", ".join(significant(x, bound, digits) for x in row) + "]")
+                lines.append(f"  {label:<22} {vector_text(row, bound, digits)}")
         blocks.append("\n".join(lines))
     stats = obj["stats"]
     blocks.append(f"{stats['instances']} parts, {stats['meshes_integrated']} meshes integrated "
