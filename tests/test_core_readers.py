@@ -168,11 +168,13 @@ def test_obj_errors_name_the_line(tmp_path, text, message):
 
 
 def test_a_binary_file_named_obj_is_refused_without_reading_it_whole(tmp_path):
+    """The reader's own limit (``massprops.io.read`` refuses sparse files even before it)."""
+    from massprops.core import read_obj
     path = tmp_path / "sparse.obj"
     with open(path, "wb") as f:
         f.truncate(300 << 20)                               # 300 MiB of zeros, no line end, no disk used
     with pytest.raises(MeshFormatError, match="longer than .* not a text file"):
-        read(path)
+        read_obj(path)
 
 
 # --- STL ------------------------------------------------------------------------------------------
@@ -310,3 +312,9 @@ def test_truncating_a_binary_stl_while_it_is_read_is_an_error_not_a_crash(tmp_pa
     out, err = child.communicate()
     assert child.returncode == 0, err.decode()[-2000:]
     assert out.strip() == b"survived"
+
+
+def test_a_line_with_bytes_that_are_not_utf8_is_quoted_in_the_error(tmp_path):
+    path = _write(tmp_path, "bytes.obj", b"v \xff.0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(MeshFormatError, match=r"line 1: cannot read 'v \\xff\.0 0 0'"):
+        read(path)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from ..errors import MeshGeometryError
 from . import _core
 
 __all__ = ["reference_frame", "Frame", "frame_of"]
@@ -70,12 +71,15 @@ def frame_of(vertices):
     if vertices.shape[0] == 0:
         return Frame((0.0, 0.0, 0.0), 0, 0.0)
     low, high = _core.bounding_box(vertices)
+    largest = max(hi - lo for lo, hi in zip(low, high))
+    if math.isinf(largest):
+        raise MeshGeometryError(f"the mesh spans more than the largest double (from {min(low):.3g} to "
+                                f"{max(high):.3g})", fix="rescale it (give it in a larger length unit)")
     reference = [_reference_coordinate(lo, hi) for lo, hi in zip(low, high)]
     centre = tuple(_short_centre(lo, hi) for lo, hi in zip(low, high))
     if any(c != r for c, r in zip(centre, reference)):
         exact = _core.shift_is_exact(vertices, centre)
         reference = [c if ok else r for c, r, ok in zip(centre, reference, exact)]
-    largest = max(hi - lo for lo, hi in zip(low, high))
     scale_exp = _ceil_log2(largest) if largest > 0 else 0
     radius = max(max(abs(hi - r), abs(lo - r)) for lo, hi, r in zip(low, high, reference))
     return Frame(tuple(reference), scale_exp, math.ldexp(radius, -scale_exp))

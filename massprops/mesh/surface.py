@@ -159,7 +159,7 @@ def check_mesh(mesh, path=None):
             raise WindingError(
                 f"{outside} of {n_shells} shells are wound inward but lie outside every other shell "
                 "(a separate body turned inside out)", path=path,
-                fix="pass --repair to orient every shell outward")
+                fix="pass {repair} to orient every shell outward")
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
                       duplicate_faces=0, degenerate_faces=degenerate)
 
@@ -180,12 +180,12 @@ def _refuse_unbalanced(faces, edges, path):
     duplicates = face_groups(faces).duplicates
     if duplicates:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
-                            fix="remove the duplicates, or pass --repair")
+                            fix="remove the duplicates, or pass {repair}")
     if edges.odd:
         raise OpenMeshError(f"mesh is open: {edges.odd} boundary edges", path=path,
-                            fix="close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS")
+                            fix="close the holes, pass {repair}, or treat it as a sheet with {shell=THICKNESS}")
     raise WindingError(f"faces are wound inconsistently: {edges.unbalanced} edges are traversed twice in the same "
-                       "direction", path=path, fix="pass --repair to orient the faces consistently")
+                       "direction", path=path, fix="pass {repair} to orient the faces consistently")
 
 
 def _inward_shells_outside(vertices, faces, labels, n_shells):

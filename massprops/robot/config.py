@@ -118,7 +118,9 @@ def load_config(path):
         import tomllib
     except ModuleNotFoundError:  # Python < 3.11
         import tomli as tomllib
+    from ..io.inputs import check_input
     path = os.fspath(path)
+    check_input(path, what="config file")
     try:
         with open(path, "rb") as handle:
             data = tomllib.load(handle)

@@ -52,11 +52,9 @@ def load_model(path, resolver, *, xacro_args=None):
     RobotFormatError
         Not a robot description, or malformed.
     """
+    from ..io.inputs import check_input
     path = os.fspath(path)
-    if os.path.isdir(path):
-        raise MeshReadError("is a directory, not a robot description", path=path, fix="name the .urdf/.sdf/.xml file")
-    if not os.path.isfile(path):
-        raise MeshReadError("no such file", path=path, fix="check the path")
+    check_input(path, what="robot description", dir_fix="name the .urdf/.sdf/.xml file")
     kind, xacro = detect_format(path)
     if kind == "urdf":
         from .urdf import expand_xacro, read_urdf

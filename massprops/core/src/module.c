@@ -136,9 +136,19 @@ static int get_array(PyObject *object, Py_buffer *view, int accepted, const char
 static PyObject *raise_failure(const Failure *failure, PyObject *path)
 {
     switch (failure->kind) {
-    case ERR_PARSE:
-        PyErr_SetObject(ParseError, Py_BuildValue("(ss)", failure->message, failure->fix));
+    case ERR_PARSE: {
+        /* a line quoted from the file may hold any bytes: shown as Python shows undecodable bytes */
+        PyObject *args = Py_BuildValue("(NN)",
+                                       PyUnicode_DecodeUTF8(failure->message, (Py_ssize_t)strlen(failure->message),
+                                                            "backslashreplace"),
+                                       PyUnicode_DecodeUTF8(failure->fix, (Py_ssize_t)strlen(failure->fix),
+                                                            "backslashreplace"));
+        if (args) {
+            PyErr_SetObject(ParseError, args);
+            Py_DECREF(args);
+        }
         break;
+    }
     case ERR_OS:
         errno = failure->os_errno;
         PyErr_SetFromErrnoWithFilenameObject(PyExc_OSError, path);
