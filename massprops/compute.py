@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 from . import integrate as _integrate
 from .errors import MassPropsError, OptionError
-from .mesh import TriangleMesh, check_mesh
+from .mesh import TriangleMesh
 from .parallel import PARALLEL_ABOVE, start
-from .properties import MassProperties
+from .properties import MassProperties, unit_factor
 from .resolution import annotate
 
 __all__ = ["mass_properties", "Result", "QUANTITIES", "order_for"]
@@ -48,7 +48,7 @@ class Result:
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None):
+                    density_field=None, density_map=None, shell=None, self_intersection=None):
     """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
     Parameters
@@ -71,6 +71,10 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     shell : float, optional
         Treat the surface as a sheet of this thickness (mesh units), see
         :mod:`massprops.shell`.
+    self_intersection : bool, optional
+        Check that no shell intersects itself: True always, False never,
+        None (default) up to :data:`massprops.solid.SELF_INTERSECTION_UP_TO`
+        faces.  ``checks["self_intersection"]`` says what was found.
 
     Returns
     -------
@@ -85,16 +89,34 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
         mesh = read(path)
     else:
         mesh = source
+    unit, unit_note = _length_unit(mesh, unit)
     try:
         if shell is not None or density_field is not None or density_map is not None \
                 or not isinstance(mesh, TriangleMesh):
-            return _other_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
-                                 repair=repair, density_field=density_field, density_map=density_map,
-                                 shell=shell)
-        return _mesh_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
-                            repair=repair)
+            result = _other_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
+                                   repair=repair, density_field=density_field, density_map=density_map,
+                                   shell=shell)
+        else:
+            result = _mesh_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
+                                  repair=repair, self_intersection=self_intersection)
     except MassPropsError as exc:
         raise exc if exc.path or path is None else exc.with_path(path)
+    if unit_note:
+        result = replace(result, warnings=(*result.warnings, unit_note))
+    return result
+
+
+def _length_unit(mesh, unit):
+    """The unit to use: the one given, else the one the file declares; and a note when the file declares one."""
+    declared = getattr(mesh, "unit", None)
+    if declared is None:
+        return unit, None
+    if unit is None:
+        return declared, (f"the file gives its length unit ({declared}): results are in SI units (m, kg), "
+                          "density in kg/m³; --unit overrides it")
+    if unit != declared:
+        return unit, f"the file gives its length unit as {declared}; --unit {unit} overrides it"
+    return unit, None
 
 
 def _other_result(mesh, path, start, order, *, shell, density_field, density_map, **material):
@@ -117,25 +139,36 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
                   source_dtype=str(getattr(mesh, "source_dtype", "float64")))
 
 
-def checked_moments(mesh, *, path=None, order=2, repair=False):
-    """Repair (on request), check and integrate a mesh; an inward surface is flipped.
+def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection=None):
+    """Repair (on request), check, resolve the solid and integrate a mesh.
+
+    The solid is the region of positive winding number (:mod:`massprops.solid`):
+    repeated faces, zero-volume, nested and overlapping shells are resolved
+    and said so; an inward surface is flipped.
 
     Returns
     -------
     (Moments, TriangleMesh, dict, list of str)
         Outward moments, the mesh integrated, the checks, and the warnings.
     """
-    warnings = []
+    from .solid import without_repeated_faces, without_unused_vertices
+
+    mesh = without_unused_vertices(mesh)
+    warnings = list(mesh.notes)
     if repair:
         from .repair import repair_mesh
-        mesh, changes = repair_mesh(mesh)
+        mesh, changes = repair_mesh(mesh, path=path)
         warnings += changes
+    mesh, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
+    warnings += repeat_warnings
     # A large mesh is integrated in a second thread while it is checked; the
-    # moments are used only once the checks have passed.
+    # moments are used only if the checks pass and the solid is these faces.
     threaded = mesh.faces.shape[0] > PARALLEL_ABOVE
     integrated = start(_integrate.integrate, mesh.vertices, mesh.faces, order=order, threaded=threaded)
     try:
-        checks = check_mesh(mesh, path=path)
+        mesh, checks, labels, welded = _closed(mesh, path)
+        solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
+                       self_intersection=self_intersection, copies=copies)
     except MassPropsError:
         if threaded:
             try:
@@ -144,24 +177,74 @@ def checked_moments(mesh, *, path=None, order=2, repair=False):
                 pass
         raise
     moments = integrated()
+    if solid.mesh.faces is not mesh.faces or solid.mesh.vertices is not mesh.vertices:
+        moments = _integrate.integrate(solid.mesh.vertices, solid.mesh.faces, order=order)
+    warnings += solid.warnings
     orientation = "outward"
-    if moments.det_sum < 0:
-        moments = moments.negated()
+    if solid.flipped or moments.det_sum < 0:
+        if not solid.flipped:
+            moments = moments.negated()
         orientation = "inward, flipped"
         warnings.append("faces are wound inward (normals point into the solid); flipped them")
+    moments = _widened(moments, solid, welded, order)
     check_dict = checks.as_dict()
+    check_dict.update(repeated)
+    check_dict.update(solid.checks)
     check_dict["orientation"] = orientation
     check_dict["refined_faces"] = moments.refined_faces
-    return moments, mesh, check_dict, warnings
+    if welded is not None:
+        check_dict["welded_vertices"] = welded.count
+        warnings.append(f"welded {welded.count} vertices that differ from others by at most "
+                        f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
+                        "include the move")
+    return moments, solid.mesh, check_dict, warnings
 
 
-def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair):
-    moments, mesh, check_dict, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
+def _closed(mesh, path):
+    """Check the mesh; a surface open only along seams of noise is welded closed (None when not)."""
+    from .errors import OpenMeshError
+    from .mesh import check_shells
+    try:
+        checks, labels = check_shells(mesh, path=path)
+        return mesh, checks, labels, None
+    except OpenMeshError:
+        from .near_weld import weld_noise
+        welded = weld_noise(mesh, path=path)
+    checks, labels = check_shells(welded.mesh, path=path)
+    return welded.mesh, checks, labels, welded
+
+
+def _solid(mesh, labels, n_shells, **options):
+    from .solid import solid_of
+    return solid_of(mesh, labels, n_shells, **options)
+
+
+def _widened(moments, solid, welded, order):
+    """The moments' bounds widened for rounded union vertices, noise welds and dropped zero-volume shells."""
+    from .solid import swept_volume, widened
+    swept, reach = solid.swept_volume, 0.0
+    if welded is not None:
+        swept += swept_volume(solid.mesh.vertices, solid.mesh.faces, welded.moved_vertices, welded.moved)
+        reach = float(welded.moved.max())
+    dropped = None
+    if solid.zero_shell_faces.size:
+        dropped = _integrate.integrate(solid.mesh.vertices, solid.zero_shell_faces, order=order)
+    if not swept and dropped is None:
+        return moments
+    return widened(moments, solid.mesh.vertices, swept=swept, reach=reach, dropped=dropped)
+
+
+def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair, self_intersection):
+    triangles = int(mesh.faces.shape[0])
+    moments, mesh, check_dict, warnings = checked_moments(mesh, path=path, order=order, repair=repair,
+                                                          self_intersection=self_intersection)
     props = MassProperties.from_moments(moments, density=density, mass=mass, unit=unit, pose=pose, path=path)
     props, validity, trust_warnings = annotate(props, mesh, mass_given=mass is not None)
     check_dict.update(validity)
+    if check_dict.get("overlap"):
+        check_dict["overlap"] *= float(unit_factor(unit)) ** 3
     warnings += trust_warnings
-    return Result(file=path or "<mesh>", properties=props, triangles=int(mesh.faces.shape[0]),
+    return Result(file=path or "<mesh>", properties=props, triangles=triangles,
                   checks=check_dict, warnings=tuple(warnings), elapsed_s=time.perf_counter() - start,
                   source_dtype=_dtype_text(mesh.source_dtype))
 

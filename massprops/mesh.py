@@ -22,7 +22,7 @@ from .grouping import first_of_groups, group_ids, labels_of, point_representativ
 from .topology import face_components, match_edges, uses as _uses
 from .parallel import PARALLEL_ABOVE, start
 
-__all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh"]
+__all__ = ["TriangleMesh", "MeshChecks", "group_ids", "check_mesh", "check_shells", "distinct_faces"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +43,8 @@ class TriangleMesh:
     vertices: np.ndarray
     faces: np.ndarray
     source_dtype: np.dtype = field(default=np.dtype(np.float64))
+    notes: tuple = ()
+    unit: str | None = None
 
     @classmethod
     def from_triangles(cls, triangles, *, source_dtype=None):
@@ -76,6 +78,39 @@ class TriangleMesh:
         del corners                   # the caller passed it to us: free it before the labels
         return cls(vertices, labels_of(is_first, representative).reshape(-1, 3), dtype)
 
+    @classmethod
+    def from_indexed(cls, vertices, faces, *, source_dtype=None, notes=(), unit=None):
+        """Weld an indexed mesh by exact coordinates, as :meth:`from_triangles` welds a soup.
+
+        Vertices no face uses are left out (a non-finite one with a note);
+        vertices with equal coordinates become one, so a surface that repeats
+        its corners per face (per-face normals, UV seams) is closed.
+
+        Parameters
+        ----------
+        vertices : ndarray, shape (n, 3)
+            Coordinates, local frame.
+        faces : ndarray, shape (m, 3), int
+            Vertex indices; out-of-range indices are left for :func:`check_mesh` to report.
+        """
+        vertices = np.asarray(vertices)
+        faces = np.asarray(faces, dtype=np.int64)
+        dtype = np.dtype(source_dtype or (vertices.dtype if vertices.dtype.kind == "f" else np.float64))
+        if faces.size and (faces.min() < 0 or faces.max() >= vertices.shape[0]):
+            return cls(np.asarray(vertices, dtype=np.float64), faces, dtype, tuple(notes), unit)
+        used = np.zeros(vertices.shape[0], dtype=bool)
+        used[faces.ravel()] = True
+        unused_bad = int(np.count_nonzero(~used & ~np.isfinite(vertices).all(axis=1)))
+        if unused_bad:
+            notes = (*notes, f"ignored {unused_bad} vertices with NaN or infinite coordinates that no face uses")
+        kept = np.flatnonzero(used)
+        points = np.add(vertices[kept], 0.0, dtype=np.float32 if vertices.dtype == np.float32 else np.float64)
+        is_first, representative = first_of_groups(point_representatives(np.ascontiguousarray(points)))
+        labels = labels_of(is_first, representative)
+        relabel = np.zeros(vertices.shape[0], dtype=np.int64)
+        relabel[kept] = labels
+        return cls(points[np.flatnonzero(is_first)].astype(np.float64), relabel[faces], dtype, tuple(notes), unit)
+
     @property
     def triangles(self):
         """ndarray, shape (m, 3, 3): corner coordinates of every face."""
@@ -83,12 +118,17 @@ class TriangleMesh:
 
     def flipped(self):
         """The same surface with every face's winding reversed."""
-        return TriangleMesh(self.vertices, self.faces[:, ::-1].copy(), self.source_dtype)
+        return TriangleMesh(self.vertices, self.faces[:, ::-1].copy(), self.source_dtype, self.notes, self.unit)
 
     def transformed(self, rotation, translation):
         """The mesh with every vertex mapped to ``rotation @ x + translation``."""
         vertices = self.vertices @ np.asarray(rotation, float).T + np.asarray(translation, float)
-        return TriangleMesh(vertices, self.faces, np.dtype(np.float64))
+        return TriangleMesh(vertices, self.faces, np.dtype(np.float64), self.notes, self.unit)
+
+    def with_faces(self, faces, vertices=None):
+        """A mesh of the same kind with other faces (and vertices), keeping the source precision."""
+        return TriangleMesh(self.vertices if vertices is None else vertices, faces, self.source_dtype, self.notes,
+                            self.unit)
 
 
 @dataclass(frozen=True)
@@ -111,36 +151,19 @@ class MeshChecks:
 _THREADED_CHECK_UP_TO = 1 << 22
 
 
-def signed_volumes_by_shell(vertices, faces, shell_labels, n_shells):
-    """Six times the signed volume enclosed by each shell (plain float64)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    det = np.einsum("ij,ij->i", a, np.cross(b - a, c - a))
-    return np.bincount(shell_labels, weights=det, minlength=n_shells)
-
-
-def winding_number(point, triangles):
-    """Generalised winding number of a closed surface about ``point``.
-
-    Van Oosterom & Strackee's solid angle per triangle, summed and divided by
-    4π: an integer for a closed surface and a point off it.
-    """
-    r = triangles - point
-    norms = np.linalg.norm(r, axis=2)
-    a, b, c = r[:, 0], r[:, 1], r[:, 2]
-    numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
-    denominator = (norms[:, 0] * norms[:, 1] * norms[:, 2]
-                   + np.einsum("ij,ij->i", a, b) * norms[:, 2]
-                   + np.einsum("ij,ij->i", a, c) * norms[:, 1]
-                   + np.einsum("ij,ij->i", b, c) * norms[:, 0])
-    return 2.0 * np.arctan2(numerator, denominator).sum() / (4.0 * np.pi)
-
-
 def check_mesh(mesh, path=None):
-    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound.
+    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound (see :func:`check_shells`)."""
+    return check_shells(mesh, path)[0]
+
+
+def check_shells(mesh, path=None):
+    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound; and find its shells.
 
     Returns
     -------
-    MeshChecks
+    checks : MeshChecks
+    labels : ndarray, shape (m,), int64
+        The shell (connected component of faces sharing vertices) of each face.
 
     Raises
     ------
@@ -171,16 +194,8 @@ def check_mesh(mesh, path=None):
         _refuse_unbalanced(faces, _uses(representative), balance, path)
     del representative, direction, balance    # a balanced mesh needs them no more: free them before the shells
     labels, n_shells = components()
-    outside = 0
-    if n_shells > 1:
-        outside = _inward_shells_outside(vertices, faces, labels, n_shells)
-        if outside:
-            raise WindingError(
-                f"{outside} of {n_shells} shells are wound inward but lie outside every other shell "
-                "(a separate body turned inside out)", path=path,
-                fix="pass --repair to orient every shell outward")
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
-                      duplicate_faces=0, degenerate_faces=degenerate)
+                      duplicate_faces=0, degenerate_faces=degenerate), labels
 
 
 def _refuse_non_finite(vertices, faces, path):
@@ -218,16 +233,3 @@ def _refuse_unbalanced(faces, uses, balance, path):
     raise WindingError(f"faces are wound inconsistently: {flipped} edges are traversed twice in the same "
                        "direction", path=path, fix="pass --repair to orient the faces consistently")
 
-
-def _inward_shells_outside(vertices, faces, labels, n_shells):
-    """Count shells whose sign is opposite to the whole and that no other shell encloses."""
-    volumes = signed_volumes_by_shell(vertices, faces, labels, n_shells)
-    total_sign = np.sign(volumes.sum()) or 1.0
-    outside = 0
-    for shell in np.flatnonzero(np.sign(volumes) == -total_sign):
-        point = vertices[faces[labels == shell][0, 0]]
-        others = vertices[faces[labels != shell]]
-        # Inside an enclosing shell of the whole's orientation, the winding number is ±1.
-        if abs(winding_number(point, others)) < 0.5:
-            outside += 1
-    return outside

@@ -13,7 +13,7 @@ from .mesh import TriangleMesh, distinct_faces
 __all__ = ["repair_mesh"]
 
 
-def repair_mesh(mesh):
+def repair_mesh(mesh, *, path=None):
     """Remove duplicate faces, make winding consistent and outward, fill small holes.
 
     Returns

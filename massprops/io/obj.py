@@ -1,5 +1,8 @@
 """Wavefront OBJ, read directly: ``v`` and ``f`` lines, polygons fanned into triangles.
 
+Vertices are welded by exact coordinates (a closed surface that repeats its
+corners per face, for per-face normals or UV seams, is closed).
+
 A direct reader keeps the coordinates exactly as written (correctly rounded
 decimal conversion), names a bad face index with its line, and avoids
 importing trimesh.  Indices may be negative (relative) and carry ``/vt/vn``
@@ -76,7 +79,7 @@ def _read_padded(padded, size):
     faces = None if coordinates is None else _face_corners(buf, face_lines, face_end, decimals)
     if faces is None or faces.min() < 1 or faces.max() > coordinates.size // 3:
         return None
-    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
+    return TriangleMesh.from_indexed(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
 
 
 def _blocks(buf, size):
@@ -190,7 +193,7 @@ def _read_common_layout(text):
     faces = _numbers([joined], np.int64)
     if faces.size != 3 * len(face_lines) or faces.min() < 1:   # polygons, relative indices, garbage
         return None
-    return TriangleMesh(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
+    return TriangleMesh.from_indexed(coordinates.reshape(-1, 3), faces.reshape(-1, 3) - 1)
 
 
 def _read_lines(lines, path):
@@ -216,7 +219,8 @@ def _read_lines(lines, path):
         faces.extend((ids[0], ids[k], ids[k + 1]) for k in range(1, len(ids) - 1))
     if not faces:
         raise MeshFormatError("the OBJ file holds no faces", path=path, fix="export the part as a closed surface")
-    return TriangleMesh(np.array(vertices, dtype=np.float64).reshape(-1, 3), np.array(faces, dtype=np.int64))
+    return TriangleMesh.from_indexed(np.array(vertices, dtype=np.float64).reshape(-1, 3),
+                                     np.array(faces, dtype=np.int64))
 
 
 def write(path, vertices, faces, comment=""):

@@ -1,0 +1,1 @@
+"""Compiled kernels and the thin Python faces that call them."""

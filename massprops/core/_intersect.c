@@ -1,0 +1,1256 @@
+/* Exact triangle intersection and point-in-solid tests for massprops.
+ *
+ * Every decision comes from the signs of two predicates, orient3d and
+ * orient2d, evaluated exactly: a floating-point filter with a certified
+ * a-priori bound (Shewchuk's bounds for these formulas), and, when the filter
+ * cannot decide, the determinant as a nonoverlapping floating-point expansion
+ * (error-free sums and products; its sign is the sign of its largest
+ * component).  The caller passes coordinates scaled to about unit size whose
+ * non-zero magnitudes are at least 2**-200, so no product under- or
+ * overflows and the expansions are exact.
+ *
+ * Entry points (the GIL is released while they run):
+ *   degenerate(V, F, out)            which triangles have zero area (exactly)
+ *   pairs(V, F, shell, active, ...)  triangle pairs that intersect, through a
+ *                                    hierarchical hash grid, in threads
+ *   winding(V, F, points)            winding numbers of points off the surface
+ *   orient3d_signs(P), orient2d_signs(P)   batches of the predicates
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <stdio.h>
+#include <time.h>
+
+
+#define EPS 1.1102230246251565e-16                 /* 2**-53, the unit roundoff */
+#define O3_BOUND ((7.0 + 56.0 * EPS) * EPS)
+#define O2_BOUND ((3.0 + 16.0 * EPS) * EPS)
+
+typedef const double *P;
+
+/* No NaN reaches these: the caller passes finite coordinates. */
+static inline double dmin(double a, double b) { return a < b ? a : b; }
+static inline double dmax(double a, double b) { return a > b ? a : b; }
+
+/* ---- error-free transformations and expansions --------------------------------------------- */
+
+static inline void two_sum(double a, double b, double *s, double *e)
+{
+    double x = a + b;
+    double bv = x - a;
+    double av = x - bv;
+    *s = x;
+    *e = (a - av) + (b - bv);
+}
+
+static inline void two_prod(double a, double b, double *p, double *e)
+{
+    double x = a * b;
+    *p = x;
+    *e = fma(a, b, -x);
+}
+
+/* Add b to the expansion h[0..n) (nonoverlapping, increasing magnitude, no zeros); new length. */
+static int grow(double *h, int n, double b)
+{
+    double q = b;
+    int k = 0;
+    for (int i = 0; i < n; i++) {
+        double s, e;
+        two_sum(q, h[i], &s, &e);
+        q = s;
+        if (e != 0.0)
+            h[k++] = e;
+    }
+    if (q != 0.0)
+        h[k++] = q;
+    return k;
+}
+
+static inline int expansion_sign(const double *h, int n)
+{
+    return n == 0 ? 0 : (h[n - 1] > 0.0 ? 1 : -1);
+}
+
+/* Grow h by the exact product x*y*z (four doubles). */
+static int add_triple(double *h, int n, double x, double y, double z)
+{
+    double p, e, p2, e2;
+    two_prod(y, z, &p, &e);
+    two_prod(p, x, &p2, &e2);
+    n = grow(h, n, p2);
+    n = grow(h, n, e2);
+    if (e != 0.0) {
+        two_prod(e, x, &p2, &e2);
+        n = grow(h, n, p2);
+        n = grow(h, n, e2);
+    }
+    return n;
+}
+
+/* Grow h by s * x * y * z, each of x, y, z an exact two-term sum (hi, lo). */
+static int add_triple2(double *h, int n, double s, const double *x, const double *y, const double *z)
+{
+    for (int i = 0; i < 2; i++) {
+        if (x[i] == 0.0)
+            continue;
+        for (int j = 0; j < 2; j++) {
+            if (y[j] == 0.0)
+                continue;
+            for (int k = 0; k < 2; k++)
+                if (z[k] != 0.0)
+                    n = add_triple(h, n, s * x[i], y[j], z[k]);
+        }
+    }
+    return n;
+}
+
+static int orient3d_exact(P a, P b, P c, P d)
+{
+    double ad[3][2], bd[3][2], cd[3][2];
+    double h[256];
+    int n = 0;
+    for (int k = 0; k < 3; k++) {
+        two_sum(a[k], -d[k], &ad[k][0], &ad[k][1]);
+        two_sum(b[k], -d[k], &bd[k][0], &bd[k][1]);
+        two_sum(c[k], -d[k], &cd[k][0], &cd[k][1]);
+    }
+    /* adz (bdx cdy - cdx bdy) + bdz (cdx ady - adx cdy) + cdz (adx bdy - bdx ady) */
+    n = add_triple2(h, n, 1.0, ad[2], bd[0], cd[1]);
+    n = add_triple2(h, n, -1.0, ad[2], cd[0], bd[1]);
+    n = add_triple2(h, n, 1.0, bd[2], cd[0], ad[1]);
+    n = add_triple2(h, n, -1.0, bd[2], ad[0], cd[1]);
+    n = add_triple2(h, n, 1.0, cd[2], ad[0], bd[1]);
+    n = add_triple2(h, n, -1.0, cd[2], bd[0], ad[1]);
+    return expansion_sign(h, n);
+}
+
+/* Sign of det[a - d; b - d; c - d]: negative when d is on the side the right-hand normal of
+ * (a, b, c) points to, positive on the other side, zero when the four points are coplanar. */
+static int orient3d(P a, P b, P c, P d)
+{
+    double adx = a[0] - d[0], bdx = b[0] - d[0], cdx = c[0] - d[0];
+    double ady = a[1] - d[1], bdy = b[1] - d[1], cdy = c[1] - d[1];
+    double adz = a[2] - d[2], bdz = b[2] - d[2], cdz = c[2] - d[2];
+    double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+    double cdxady = cdx * ady, adxcdy = adx * cdy;
+    double adxbdy = adx * bdy, bdxady = bdx * ady;
+    double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    double permanent = (fabs(bdxcdy) + fabs(cdxbdy)) * fabs(adz) + (fabs(cdxady) + fabs(adxcdy)) * fabs(bdz)
+                       + (fabs(adxbdy) + fabs(bdxady)) * fabs(cdz);
+    double bound = O3_BOUND * permanent;
+    if (det > bound)
+        return 1;
+    if (-det > bound)
+        return -1;
+    return orient3d_exact(a, b, c, d);
+}
+
+static int orient2d_exact(double ax, double ay, double bx, double by, double cx, double cy)
+{
+    double acx[2], bcy[2], acy[2], bcx[2], h[64];
+    int n = 0;
+    two_sum(ax, -cx, &acx[0], &acx[1]);
+    two_sum(by, -cy, &bcy[0], &bcy[1]);
+    two_sum(ay, -cy, &acy[0], &acy[1]);
+    two_sum(bx, -cx, &bcx[0], &bcx[1]);
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2; j++) {
+            double p, e;
+            if (acx[i] != 0.0 && bcy[j] != 0.0) {
+                two_prod(acx[i], bcy[j], &p, &e);
+                n = grow(h, n, p);
+                n = grow(h, n, e);
+            }
+            if (acy[i] != 0.0 && bcx[j] != 0.0) {
+                two_prod(-acy[i], bcx[j], &p, &e);
+                n = grow(h, n, p);
+                n = grow(h, n, e);
+            }
+        }
+    return expansion_sign(h, n);
+}
+
+/* Positive when (a, b, c) turn counter-clockwise. */
+static int orient2d(double ax, double ay, double bx, double by, double cx, double cy)
+{
+    double left = (ax - cx) * (by - cy), right = (ay - cy) * (bx - cx);
+    double det = left - right;
+    double bound = O2_BOUND * (fabs(left) + fabs(right));
+    if (det > bound)
+        return 1;
+    if (-det > bound)
+        return -1;
+    return orient2d_exact(ax, ay, bx, by, cx, cy);
+}
+
+/* orient2d of the projection that drops axis k. */
+static inline int porient(int k, P a, P b, P c)
+{
+    int u = k == 0 ? 1 : 0, v = k == 2 ? 1 : 2;
+    return orient2d(a[u], a[v], b[u], b[v], c[u], c[v]);
+}
+
+/* An axis whose projection keeps (p, q, r) a proper triangle, or -1 when it has zero area. */
+static int triangle_axis(P p, P q, P r)
+{
+    double ux = q[0] - p[0], uy = q[1] - p[1], uz = q[2] - p[2];
+    double vx = r[0] - p[0], vy = r[1] - p[1], vz = r[2] - p[2];
+    double n[3] = {fabs(uy * vz - uz * vy), fabs(uz * vx - ux * vz), fabs(ux * vy - uy * vx)};
+    int order[3] = {0, 1, 2};
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2 - i; j++)
+            if (n[order[j]] < n[order[j + 1]]) {
+                int t = order[j];
+                order[j] = order[j + 1];
+                order[j + 1] = t;
+            }
+    for (int i = 0; i < 3; i++)
+        if (porient(order[i], p, q, r) != 0)
+            return order[i];
+    return -1;
+}
+
+/* ---- closed-set tests ---------------------------------------------------------------------- */
+
+/* c, known collinear with a and b in projection k, lies within the segment. */
+static int within_segment(int k, P a, P b, P c)
+{
+    for (int axis = 0; axis < 3; axis++) {
+        if (axis == k)
+            continue;
+        double lo = a[axis] < b[axis] ? a[axis] : b[axis], hi = a[axis] < b[axis] ? b[axis] : a[axis];
+        if (c[axis] < lo || c[axis] > hi)
+            return 0;
+    }
+    return 1;
+}
+
+/* Closed segments ab and cd, coplanar, meet (tested in projection k). */
+static int segments_meet(int k, P a, P b, P c, P d)
+{
+    int o1 = porient(k, a, b, c), o2 = porient(k, a, b, d);
+    int o3 = porient(k, c, d, a), o4 = porient(k, c, d, b);
+    if (o1 * o2 < 0 && o3 * o4 < 0)
+        return 1;
+    return (o1 == 0 && within_segment(k, a, b, c)) || (o2 == 0 && within_segment(k, a, b, d))
+           || (o3 == 0 && within_segment(k, c, d, a)) || (o4 == 0 && within_segment(k, c, d, b));
+}
+
+/* x lies in the closed triangle pqr, all coplanar (projection k keeps pqr proper). */
+static int in_triangle(int k, P x, P p, P q, P r)
+{
+    int o = porient(k, p, q, r);
+    return porient(k, p, q, x) * o >= 0 && porient(k, q, r, x) * o >= 0 && porient(k, r, p, x) * o >= 0;
+}
+
+static int segment_meets_triangle_2d(int k, P a, P b, P p, P q, P r)
+{
+    return in_triangle(k, a, p, q, r) || in_triangle(k, b, p, q, r) || segments_meet(k, a, b, p, q)
+           || segments_meet(k, a, b, q, r) || segments_meet(k, a, b, r, p);
+}
+
+/* Closed segment ab meets closed triangle pqr (axis k); sa, sb: orient3d(p, q, r, a / b). */
+static int segment_meets_triangle(P a, P b, int sa, int sb, P p, P q, P r, int k)
+{
+    if (sa == sb && sa != 0)
+        return 0;
+    if (sa == 0 && sb == 0)
+        return segment_meets_triangle_2d(k, a, b, p, q, r);
+    int s1 = orient3d(a, b, p, q), s2 = orient3d(a, b, q, r), s3 = orient3d(a, b, r, p);
+    return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
+}
+
+static int same_strict_side(const int *s)
+{
+    return (s[0] > 0 && s[1] > 0 && s[2] > 0) || (s[0] < 0 && s[1] < 0 && s[2] < 0);
+}
+
+/* Closed triangles T1 = t1[0..2], T2 = t2[0..2] (proper, axes k1, k2) share a point. */
+static int triangles_meet(P const *t1, int k1, P const *t2, int k2)
+{
+    int s1[3], s2[3];
+    for (int i = 0; i < 3; i++)
+        s1[i] = orient3d(t2[0], t2[1], t2[2], t1[i]);
+    if (same_strict_side(s1))
+        return 0;
+    for (int i = 0; i < 3; i++)
+        s2[i] = orient3d(t1[0], t1[1], t1[2], t2[i]);
+    if (same_strict_side(s2))
+        return 0;
+    if (s1[0] == 0 && s1[1] == 0 && s1[2] == 0) {
+        for (int i = 0; i < 3; i++)
+            if (segment_meets_triangle_2d(k2, t1[i], t1[(i + 1) % 3], t2[0], t2[1], t2[2]))
+                return 1;
+        return in_triangle(k2, t2[0], t1[0], t1[1], t1[2]);
+    }
+    for (int i = 0; i < 3; i++) {
+        int j = (i + 1) % 3;
+        if (segment_meets_triangle(t1[i], t1[j], s1[i], s1[j], t2[0], t2[1], t2[2], k2))
+            return 1;
+        if (segment_meets_triangle(t2[i], t2[j], s2[i], s2[j], t1[0], t1[1], t1[2], k1))
+            return 1;
+    }
+    return 0;
+}
+
+/* Direction x - p lies in the closed cone of the rays p->c and p->d (coplanar, projection k). */
+static int in_cone(int k, P p, P x, P c, P d)
+{
+    int o = porient(k, p, c, d);
+    return porient(k, p, c, x) * o >= 0 && porient(k, p, x, d) * o >= 0;
+}
+
+/* Triangles (p, a, b) and (p, c, d), sharing only the vertex p, meet elsewhere too. */
+static int meet_beyond_vertex(P p, P a, P b, int k1, P c, P d, int k2)
+{
+    int sc = orient3d(p, a, b, c), sd = orient3d(p, a, b, d);
+    if (sc == sd && sc != 0)
+        return 0;
+    int ta = orient3d(p, c, d, a), tb = orient3d(p, c, d, b);
+    if (ta == tb && ta != 0)
+        return 0;
+    return segment_meets_triangle(a, b, ta, tb, p, c, d, k2) || segment_meets_triangle(c, d, sc, sd, p, a, b, k1)
+           || (ta == 0 && in_cone(k2, p, a, c, d)) || (tb == 0 && in_cone(k2, p, b, c, d))
+           || (sc == 0 && in_cone(k1, p, c, a, b)) || (sd == 0 && in_cone(k1, p, d, a, b));
+}
+
+/* Triangles (p, q, r) and (q, p, s) or (p, q, s), sharing the edge pq, fold onto each other. */
+static int fold_over_edge(P p, P q, P r, P s, int k1)
+{
+    if (orient3d(p, q, r, s) != 0)
+        return 0;
+    return porient(k1, p, q, r) * porient(k1, p, q, s) > 0;
+}
+
+/* ---- buffers ------------------------------------------------------------------------------- */
+
+static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t itemsize, int writable, const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (view->len % itemsize != 0) {
+        PyErr_Format(PyExc_ValueError, "%s: expected items of %zd bytes", name, itemsize);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_degenerate(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *oo;
+    Py_buffer vb, fb, ob;
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &oo))
+        return NULL;
+    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
+        return NULL;
+    if (get_buffer(fo, &fb, 8, 0, "faces") < 0) {
+        PyBuffer_Release(&vb);
+        return NULL;
+    }
+    if (get_buffer(oo, &ob, 1, 1, "out") < 0) {
+        PyBuffer_Release(&vb);
+        PyBuffer_Release(&fb);
+        return NULL;
+    }
+    const double *V = vb.buf;
+    const int64_t *F = fb.buf;
+    uint8_t *out = ob.buf;
+    Py_ssize_t m = fb.len / 24;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t t = 0; t < m; t++)
+        out[t] = triangle_axis(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]) < 0;
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&ob);
+    Py_RETURN_NONE;
+}
+
+/* ---- sorting and Morton codes -------------------------------------------------------------- */
+
+/* Sort (key, value) pairs by key: LSD radix sort on 8-bit digits, histograms in one pass, digits
+ * that every key shares skipped.  tk, tv: scratch of n entries.  The sorted pairs end in key, value. */
+static int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, Py_ssize_t n)
+{
+    size_t (*count)[256] = calloc(8, sizeof(*count));
+    if (!count)
+        return -1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        uint64_t k = key[i];
+        for (int d = 0; d < 8; d++)
+            count[d][(k >> (8 * d)) & 0xFF]++;
+    }
+    uint64_t *src_k = key, *dst_k = tk;
+    uint32_t *src_v = value, *dst_v = tv;
+    for (int d = 0; d < 8; d++) {
+        int shift = 8 * d;
+        if (n == 0 || count[d][(key[0] >> shift) & 0xFF] == (size_t)n)
+            continue;
+        size_t sum = 0;
+        for (int b = 0; b < 256; b++) {
+            size_t c = count[d][b];
+            count[d][b] = sum;
+            sum += c;
+        }
+        for (Py_ssize_t i = 0; i < n; i++) {
+            size_t slot = count[d][(src_k[i] >> shift) & 0xFF]++;
+            dst_k[slot] = src_k[i];
+            dst_v[slot] = src_v[i];
+        }
+        uint64_t *xk = src_k;
+        src_k = dst_k;
+        dst_k = xk;
+        uint32_t *xv = src_v;
+        src_v = dst_v;
+        dst_v = xv;
+    }
+    if (src_k != key) {
+        memcpy(key, src_k, sizeof(uint64_t) * n);
+        memcpy(value, src_v, sizeof(uint32_t) * n);
+    }
+    free(count);
+    return 0;
+}
+
+static inline uint64_t spread21(uint64_t x)
+{
+    x &= 0x1FFFFF;
+    x = (x | x << 32) & 0x1F00000000FFFFULL;
+    x = (x | x << 16) & 0x1F0000FF0000FFULL;
+    x = (x | x << 8) & 0x100F00F00F00F00FULL;
+    x = (x | x << 4) & 0x10C30C30C30C30C3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+}
+
+static inline uint64_t morton(uint64_t i, uint64_t j, uint64_t k)
+{
+    return spread21(i) | spread21(j) << 1 | spread21(k) << 2;
+}
+
+/* ---- faces in space order, and the hierarchical grid ------------------------------------- */
+
+#define MAX_LEVEL 40
+#define INDEX_BITS 19
+#define LEVEL_SHIFT (3 * INDEX_BITS)
+
+typedef struct {
+    const double *V;
+    Py_ssize_t n;          /* faces taken: active, of non-zero area; in Morton order of their box centres */
+    int64_t *id;           /* original face index */
+    int64_t *corner;       /* 3 per face */
+    int64_t *shell;
+    double *lo, *hi;       /* 3 per face */
+    int8_t *axis, *level;
+    /* grid */
+    double origin[3], size[MAX_LEVEL + 1], inverse[MAX_LEVEL + 1];
+    int used[MAX_LEVEL + 1], n_used;
+    Py_ssize_t level_begin[MAX_LEVEL + 2];   /* entries of each level: [begin[l], begin[l + 1]) */
+    Py_ssize_t n_entries;
+    uint64_t *key;         /* per entry, sorted */
+    uint32_t *face;        /* per entry: index into the sorted faces */
+} Grid;
+
+static void free_grid(Grid *g)
+{
+    free(g->id);
+    free(g->corner);
+    free(g->shell);
+    free(g->lo);
+    free(g->hi);
+    free(g->axis);
+    free(g->level);
+    free(g->key);
+    free(g->face);
+}
+
+/* x is never below the origin, so truncation is the floor. */
+static inline int64_t cell_of(const Grid *g, int level, int axis, double x)
+{
+    return (int64_t)((x - g->origin[axis]) * g->inverse[level]);
+}
+
+static inline uint64_t cell_key(int level, int64_t i, int64_t j, int64_t k)
+{
+    return ((uint64_t)level << LEVEL_SHIFT) | morton((uint64_t)i, (uint64_t)j, (uint64_t)k);
+}
+
+static void cell_range(const Grid *g, Py_ssize_t t, int level, int64_t *c0, int64_t *c1)
+{
+    for (int axis = 0; axis < 3; axis++) {
+        c0[axis] = cell_of(g, level, axis, g->lo[3 * t + axis]);
+        c1[axis] = cell_of(g, level, axis, g->hi[3 * t + axis]);
+    }
+}
+
+static int compare_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static inline double face_extent(const double *lo, const double *hi)
+{
+    return dmax(hi[0] - lo[0], dmax(hi[1] - lo[1], hi[2] - lo[2]));
+}
+
+/* Build the sorted faces and the grid; 0 on success, -1 out of memory. */
+static int build_grid(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active,
+                      Py_ssize_t m)
+{
+    memset(g, 0, sizeof(*g));
+    g->V = V;
+    int8_t *axis = malloc(m ? m : 1);
+    double *box = malloc(sizeof(double) * 6 * (m ? m : 1));     /* lo, hi of each face, input order */
+    if (!axis || !box) {
+        free(axis), free(box);
+        return -1;
+    }
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    Py_ssize_t n = 0;
+    for (Py_ssize_t t = 0; t < m; t++) {
+        axis[t] = -1;
+        if (!active[t])
+            continue;
+        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
+        axis[t] = (int8_t)triangle_axis(a, b, c);
+        if (axis[t] < 0)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            double lo = dmin(a[k], dmin(b[k], c[k])), hi = dmax(a[k], dmax(b[k], c[k]));
+            box[6 * t + k] = lo;
+            box[6 * t + 3 + k] = hi;
+            glo[k] = dmin(glo[k], lo);
+            ghi[k] = dmax(ghi[k], hi);
+        }
+        n++;
+    }
+    if (n == 0 || n >= ((Py_ssize_t)1 << 32)) {
+        free(axis), free(box);
+        return n == 0 ? 0 : -1;
+    }
+    double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2]));
+    if (!(whole > 0.0))
+        whole = 1.0;
+    /* Faces in Morton order of their box centres: neighbours in space are neighbours in memory. */
+    uint64_t *mk = malloc(sizeof(uint64_t) * n), *tk = malloc(sizeof(uint64_t) * n);
+    uint32_t *mv = malloc(sizeof(uint32_t) * n), *tv = malloc(sizeof(uint32_t) * n);
+    int64_t *taken = malloc(sizeof(int64_t) * n);
+    if (!mk || !tk || !mv || !tv || !taken) {
+        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
+        return -1;
+    }
+    double quantum = (double)((1 << 21) - 1) / whole;
+    Py_ssize_t i = 0;
+    for (Py_ssize_t t = 0; t < m; t++) {
+        if (axis[t] < 0)
+            continue;
+        uint64_t q[3];
+        for (int k = 0; k < 3; k++) {
+            double x = (0.5 * (box[6 * t + k] + box[6 * t + 3 + k]) - glo[k]) * quantum;
+            q[k] = x <= 0.0 ? 0 : (x >= (1 << 21) - 1 ? (1 << 21) - 1 : (uint64_t)x);
+        }
+        taken[i] = t;
+        mk[i] = morton(q[0], q[1], q[2]);
+        mv[i] = (uint32_t)i;
+        i++;
+    }
+    if (radix_sort(mk, mv, tk, tv, n) < 0) {
+        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
+        return -1;
+    }
+    g->n = n;
+    g->id = malloc(sizeof(int64_t) * n);
+    g->corner = malloc(sizeof(int64_t) * 3 * n);
+    g->shell = malloc(sizeof(int64_t) * n);
+    g->lo = malloc(sizeof(double) * 3 * n);
+    g->hi = malloc(sizeof(double) * 3 * n);
+    g->axis = malloc(n);
+    g->level = malloc(n);
+    if (!g->id || !g->corner || !g->shell || !g->lo || !g->hi || !g->axis || !g->level) {
+        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
+        return -1;
+    }
+    for (Py_ssize_t s = 0; s < n; s++) {
+        int64_t t = taken[mv[s]];
+        g->id[s] = t;
+        g->shell[s] = shell[t];
+        g->axis[s] = axis[t];
+        for (int k = 0; k < 3; k++)
+            g->corner[3 * s + k] = F[3 * t + k];
+        for (int k = 0; k < 3; k++) {
+            g->lo[3 * s + k] = box[6 * t + k];
+            g->hi[3 * s + k] = box[6 * t + 3 + k];
+        }
+    }
+    free(axis), free(box), free(taken), free(mk), free(mv);
+    /* The finest cell: the largest sampled face extent when it is at most twice the 90th
+     * percentile (one level: no lookups across levels), else that percentile (larger faces go up a
+     * level per doubling); never below 2**-17 of the whole. */
+    int samples = n < 4096 ? (int)n : 4096;
+    double *extent = malloc(sizeof(double) * samples);
+    if (!extent) {
+        free(tk), free(tv);
+        return -1;
+    }
+    for (int s = 0; s < samples; s++) {
+        Py_ssize_t t = (Py_ssize_t)((double)s * n / samples);
+        extent[s] = face_extent(g->lo + 3 * t, g->hi + 3 * t);
+    }
+    qsort(extent, samples, sizeof(double), compare_double);
+    double base = extent[(samples * 9) / 10];
+    if (extent[samples - 1] <= 2.0 * base)
+        base = extent[samples - 1];
+    free(extent);
+    double floor_size = ldexp(whole, -(INDEX_BITS - 2));
+    if (!(base > floor_size))
+        base = floor_size;
+    for (int k = 0; k < 3; k++)
+        g->origin[k] = glo[k];
+    for (int level = 0; level <= MAX_LEVEL; level++) {
+        g->size[level] = ldexp(base, level);
+        g->inverse[level] = 1.0 / g->size[level];
+    }
+    Py_ssize_t n_entries = 0;
+    for (Py_ssize_t t = 0; t < n; t++) {
+        double e = face_extent(g->lo + 3 * t, g->hi + 3 * t);
+        int level = 0;
+        while (level < MAX_LEVEL && e > g->size[level])
+            level++;
+        g->level[t] = (int8_t)level;
+        g->used[level] = 1;
+        int64_t c0[3], c1[3];
+        cell_range(g, t, level, c0, c1);
+        n_entries += (c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1);
+    }
+    g->n_used = 0;
+    int used_levels[MAX_LEVEL + 1];
+    for (int level = 0; level <= MAX_LEVEL; level++)
+        if (g->used[level])
+            used_levels[g->n_used++] = level;
+    memcpy(g->used, used_levels, sizeof(int) * g->n_used);
+    g->n_entries = n_entries;
+    g->key = malloc(sizeof(uint64_t) * n_entries);
+    g->face = malloc(sizeof(uint32_t) * n_entries);
+    uint64_t *tk2 = realloc(tk, sizeof(uint64_t) * (n_entries > n ? n_entries : n));
+    uint32_t *tv2 = realloc(tv, sizeof(uint32_t) * (n_entries > n ? n_entries : n));
+    if (!g->key || !g->face || !tk2 || !tv2) {
+        free(tk2 ? tk2 : tk), free(tv2 ? tv2 : tv);
+        return -1;
+    }
+    Py_ssize_t e = 0;
+    for (Py_ssize_t t = 0; t < n; t++) {
+        int64_t c0[3], c1[3];
+        cell_range(g, t, g->level[t], c0, c1);
+        for (int64_t a = c0[0]; a <= c1[0]; a++)
+            for (int64_t b = c0[1]; b <= c1[1]; b++)
+                for (int64_t c = c0[2]; c <= c1[2]; c++) {
+                    g->key[e] = cell_key(g->level[t], a, b, c);
+                    g->face[e] = (uint32_t)t;
+                    e++;
+                }
+    }
+    int sorted = radix_sort(g->key, g->face, tk2, tv2, n_entries);
+    free(tk2), free(tv2);
+    if (sorted < 0)
+        return -1;
+    for (int level = 0, e2 = 0; level <= MAX_LEVEL + 1; level++) {
+        while (e2 < n_entries && (int)(g->key[e2] >> LEVEL_SHIFT) < level)
+            e2++;
+        g->level_begin[level] = e2;
+    }
+    return 0;
+}
+
+/* First entry with this key (within its level's range), or -1. */
+static Py_ssize_t find_key(const Grid *g, int level, uint64_t key)
+{
+    Py_ssize_t lo = g->level_begin[level], hi = g->level_begin[level + 1];
+    while (lo < hi) {
+        Py_ssize_t mid = lo + (hi - lo) / 2;
+        if (g->key[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < g->level_begin[level + 1] && g->key[lo] == key ? lo : -1;
+}
+
+static inline P corner(const Grid *g, Py_ssize_t t, int k)
+{
+    return g->V + 3 * g->corner[3 * t + k];
+}
+
+/* Whether sorted faces t and u of one shell meet other than along what they share. */
+static int self_hit(const Grid *g, Py_ssize_t t, Py_ssize_t u)
+{
+    const int64_t *a = g->corner + 3 * t, *b = g->corner + 3 * u;
+    int shared = 0, ia[3], ib[3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            if (a[i] == b[j]) {
+                ia[shared] = i;
+                ib[shared] = j;
+                shared++;
+            }
+    P ta[3] = {corner(g, t, 0), corner(g, t, 1), corner(g, t, 2)};
+    P tb[3] = {corner(g, u, 0), corner(g, u, 1), corner(g, u, 2)};
+    if (shared == 0)
+        return triangles_meet(ta, g->axis[t], tb, g->axis[u]);
+    if (shared >= 3)
+        return 1;
+    if (shared == 2) {
+        int ra = 3 - ia[0] - ia[1], rb = 3 - ib[0] - ib[1];
+        return fold_over_edge(ta[ia[0]], ta[ia[1]], ta[ra], tb[rb], g->axis[t]);
+    }
+    return meet_beyond_vertex(ta[ia[0]], ta[(ia[0] + 1) % 3], ta[(ia[0] + 2) % 3], g->axis[t],
+                              tb[(ib[0] + 1) % 3], tb[(ib[0] + 2) % 3], g->axis[u]);
+}
+
+static int other_hit(const Grid *g, Py_ssize_t t, Py_ssize_t u)
+{
+    P ta[3] = {corner(g, t, 0), corner(g, t, 1), corner(g, t, 2)};
+    P tb[3] = {corner(g, u, 0), corner(g, u, 1), corner(g, u, 2)};
+    return triangles_meet(ta, g->axis[t], tb, g->axis[u]);
+}
+
+/* ---- pair search, per thread -------------------------------------------------------------- */
+
+typedef struct {
+    const Grid *g;
+    int within, between;
+    Py_ssize_t n_shells, max_examples;
+    Py_ssize_t entry_begin, entry_end, face_begin, face_end;
+    uint8_t *self_found;      /* per shell */
+    int64_t *examples;        /* 2 per example: original face indices */
+    Py_ssize_t n_examples;
+    int64_t *found;           /* 4 per intersecting shell pair: shells, original faces */
+    Py_ssize_t n_found, cap_found;
+    uint64_t *seen;           /* open-addressing set of shell pairs (key + 1; 0 empty) */
+    uint64_t seen_mask;
+    Py_ssize_t n_seen;
+    int64_t candidates, tests;
+    int failed;
+} Work;
+
+static inline uint64_t mix64(uint64_t h)
+{
+    h ^= h >> 30;
+    h *= 0xBF58476D1CE4E5B9ULL;
+    h ^= h >> 27;
+    h *= 0x94D049BB133111EBULL;
+    h ^= h >> 31;
+    return h;
+}
+
+static int seen_has(const Work *w, uint64_t key)
+{
+    for (uint64_t i = mix64(key) & w->seen_mask;; i = (i + 1) & w->seen_mask) {
+        if (w->seen[i] == 0)
+            return 0;
+        if (w->seen[i] == key + 1)
+            return 1;
+    }
+}
+
+static int seen_add(Work *w, uint64_t key)
+{
+    if (2 * (uint64_t)(w->n_seen + 1) > w->seen_mask + 1) {
+        uint64_t size = 2 * (w->seen_mask + 1);
+        uint64_t *table = calloc(size, sizeof(uint64_t));
+        if (!table)
+            return -1;
+        for (uint64_t i = 0; i <= w->seen_mask; i++)
+            if (w->seen[i]) {
+                uint64_t j = mix64(w->seen[i] - 1) & (size - 1);
+                while (table[j])
+                    j = (j + 1) & (size - 1);
+                table[j] = w->seen[i];
+            }
+        free(w->seen);
+        w->seen = table;
+        w->seen_mask = size - 1;
+    }
+    uint64_t i = mix64(key) & w->seen_mask;
+    while (w->seen[i])
+        i = (i + 1) & w->seen_mask;
+    w->seen[i] = key + 1;
+    w->n_seen++;
+    return 0;
+}
+
+static void consider(Work *w, Py_ssize_t t, Py_ssize_t u)
+{
+    const Grid *g = w->g;
+    int64_t st = g->shell[t], su = g->shell[u];
+    if (st == su) {
+        if (!w->within || (w->self_found[st] && w->n_examples >= w->max_examples))
+            return;
+        w->tests++;
+        if (self_hit(g, t, u)) {
+            w->self_found[st] = 1;
+            if (w->n_examples < w->max_examples) {
+                int64_t a = g->id[t], b = g->id[u];
+                w->examples[2 * w->n_examples] = a < b ? a : b;
+                w->examples[2 * w->n_examples + 1] = a < b ? b : a;
+                w->n_examples++;
+            }
+        }
+        return;
+    }
+    if (!w->between)
+        return;
+    if (st > su) {
+        int64_t x = st;
+        st = su;
+        su = x;
+        Py_ssize_t y = t;
+        t = u;
+        u = y;
+    }
+    uint64_t key = ((uint64_t)st << 32) | (uint64_t)su;
+    if (seen_has(w, key))
+        return;
+    w->tests++;
+    if (!other_hit(g, t, u))
+        return;
+    if (seen_add(w, key) < 0) {
+        w->failed = 1;
+        return;
+    }
+    if (w->n_found == w->cap_found) {
+        Py_ssize_t cap = w->cap_found ? 2 * w->cap_found : 64;
+        int64_t *grown = realloc(w->found, sizeof(int64_t) * 4 * cap);
+        if (!grown) {
+            w->failed = 1;
+            return;
+        }
+        w->found = grown;
+        w->cap_found = cap;
+    }
+    int64_t *row = w->found + 4 * w->n_found++;
+    row[0] = st;
+    row[1] = su;
+    row[2] = g->id[t];
+    row[3] = g->id[u];
+}
+
+static inline int boxes_meet(const Grid *g, Py_ssize_t t, Py_ssize_t u)
+{
+    const double *lt = g->lo + 3 * t, *ht = g->hi + 3 * t, *lu = g->lo + 3 * u, *hu = g->hi + 3 * u;
+    return !(lt[0] > hu[0] || lu[0] > ht[0] || lt[1] > hu[1] || lu[1] > ht[1] || lt[2] > hu[2] || lu[2] > ht[2]);
+}
+
+/* A pair is met in the cell (at `level`) holding the larger of its two lower corners: exactly once. */
+static inline int canonical_cell(const Grid *g, Py_ssize_t t, Py_ssize_t u, int level, uint64_t key)
+{
+    int64_t c[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = cell_of(g, level, k, dmax(g->lo[3 * t + k], g->lo[3 * u + k]));
+    return cell_key(level, c[0], c[1], c[2]) == key;
+}
+
+static void *search(void *arg)
+{
+    Work *w = arg;
+    const Grid *g = w->g;
+    /* Pairs within a level: runs of equal keys. */
+    Py_ssize_t e = w->entry_begin;
+    while (e < w->entry_end && !w->failed) {
+        Py_ssize_t end = e + 1;
+        while (end < g->n_entries && g->key[end] == g->key[e])
+            end++;
+        int level = (int)(g->key[e] >> LEVEL_SHIFT);
+        for (Py_ssize_t i = e; i < end; i++)
+            for (Py_ssize_t j = i + 1; j < end; j++) {
+                Py_ssize_t t = g->face[i], u = g->face[j];
+                w->candidates++;
+                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, level, g->key[e]))
+                    consider(w, t, u);
+            }
+        e = end;
+    }
+    /* Pairs across levels: each face looks up the cells of coarser levels its box covers. */
+    if (g->n_used > 1)
+        for (Py_ssize_t t = w->face_begin; t < w->face_end && !w->failed; t++) {
+            int level = g->level[t];
+            for (int l = 0; l < g->n_used; l++) {
+                int coarse = g->used[l];
+                if (coarse <= level)
+                    continue;
+                int64_t c0[3], c1[3];
+                cell_range(g, t, coarse, c0, c1);
+                for (int64_t a = c0[0]; a <= c1[0]; a++)
+                    for (int64_t b = c0[1]; b <= c1[1]; b++)
+                        for (int64_t c = c0[2]; c <= c1[2]; c++) {
+                            uint64_t key = cell_key(coarse, a, b, c);
+                            for (Py_ssize_t x = find_key(g, coarse, key); x >= 0 && x < g->n_entries
+                                                                          && g->key[x] == key; x++) {
+                                Py_ssize_t u = g->face[x];
+                                w->candidates++;
+                                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, coarse, key))
+                                    consider(w, t, u);
+                            }
+                        }
+            }
+        }
+    return NULL;
+}
+
+#define MAX_THREADS 16
+
+static PyObject *py_pairs(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *so, *ao;
+    Py_ssize_t n_shells, max_examples;
+    int within, between, threads;
+    if (!PyArg_ParseTuple(args, "OOOOnppni", &vo, &fo, &so, &ao, &n_shells, &within, &between, &max_examples,
+                          &threads))
+        return NULL;
+    if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31)) {
+        PyErr_SetString(PyExc_ValueError, "shell count out of range");
+        return NULL;
+    }
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, sb, ab;
+    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
+        return NULL;
+    if (get_buffer(fo, &fb, 8, 0, "faces") < 0)
+        goto fail_v;
+    if (get_buffer(so, &sb, 8, 0, "shell") < 0)
+        goto fail_f;
+    if (get_buffer(ao, &ab, 1, 0, "active") < 0)
+        goto fail_s;
+    Py_ssize_t m = fb.len / 24;
+    if (sb.len / 8 != m || ab.len != m) {
+        PyErr_SetString(PyExc_ValueError, "shell and active need one entry per face");
+        goto fail_a;
+    }
+    Grid g;
+    Work work[MAX_THREADS];
+    memset(work, 0, sizeof(work));
+    int failed;
+    struct timespec c0, c1, c2;
+    clock_gettime(CLOCK_MONOTONIC, &c0);
+    Py_BEGIN_ALLOW_THREADS
+    failed = build_grid(&g, vb.buf, fb.buf, sb.buf, ab.buf, m) < 0;
+    Py_END_ALLOW_THREADS
+    clock_gettime(CLOCK_MONOTONIC, &c1);
+    for (int i = 0; i < threads && !failed; i++) {
+        Work *w = &work[i];
+        w->g = &g;
+        w->within = within;
+        w->between = between;
+        w->n_shells = n_shells;
+        w->max_examples = max_examples;
+        /* Contiguous shares, cut at key boundaries, so each thread reads its own stretch of memory. */
+        Py_ssize_t b = g.n_entries * i / threads, e = g.n_entries * (i + 1) / threads;
+        while (b > 0 && b < g.n_entries && g.key[b] == g.key[b - 1])
+            b++;
+        while (e > 0 && e < g.n_entries && g.key[e] == g.key[e - 1])
+            e++;
+        w->entry_begin = b;
+        w->entry_end = e;
+        w->face_begin = g.n * i / threads;
+        w->face_end = g.n * (i + 1) / threads;
+        w->self_found = calloc(n_shells, 1);
+        w->examples = malloc(sizeof(int64_t) * 2 * (max_examples ? max_examples : 1));
+        w->seen = calloc(64, sizeof(uint64_t));
+        w->seen_mask = 63;
+        failed |= !w->self_found || !w->examples || !w->seen;
+    }
+    if (!failed && g.n > 0) {
+        Py_BEGIN_ALLOW_THREADS
+        pthread_t ids[MAX_THREADS];
+        int started[MAX_THREADS] = {0};
+        for (int i = 1; i < threads; i++)
+            started[i] = pthread_create(&ids[i], NULL, search, &work[i]) == 0;
+        search(&work[0]);
+        for (int i = 1; i < threads; i++) {
+            if (started[i])
+                pthread_join(ids[i], NULL);
+            else
+                search(&work[i]);
+        }
+        Py_END_ALLOW_THREADS
+        for (int i = 0; i < threads; i++)
+            failed |= work[i].failed;
+    }
+    clock_gettime(CLOCK_MONOTONIC, &c2);
+    if (getenv("MASSPROPS_INTERSECT_TIMING"))
+        fprintf(stderr, "build %.3f s, search %.3f s, faces %zd, levels %d, entries %zd\n",
+                (c1.tv_sec - c0.tv_sec) + 1e-9 * (c1.tv_nsec - c0.tv_nsec),
+                (c2.tv_sec - c1.tv_sec) + 1e-9 * (c2.tv_nsec - c1.tv_nsec), g.n, g.n_used, g.n_entries);
+    PyObject *result = NULL;
+    if (failed) {
+        PyErr_NoMemory();
+    } else {
+        /* Merge: shells found by any thread; examples up to the cap; shell pairs as found. */
+        Py_ssize_t n_examples = 0, n_found = 0;
+        for (int i = 0; i < threads; i++) {
+            n_examples += work[i].n_examples;
+            n_found += work[i].n_found;
+        }
+        n_examples = n_examples > max_examples ? max_examples : n_examples;
+        PyObject *flags = PyBytes_FromStringAndSize(NULL, n_shells);
+        PyObject *examples = PyBytes_FromStringAndSize(NULL, 16 * n_examples);
+        PyObject *found = PyBytes_FromStringAndSize(NULL, 32 * n_found);
+        if (flags && examples && found) {
+            uint8_t *fl = (uint8_t *)PyBytes_AS_STRING(flags);
+            int64_t *ex = (int64_t *)PyBytes_AS_STRING(examples), *fd = (int64_t *)PyBytes_AS_STRING(found);
+            memset(fl, 0, n_shells);
+            Py_ssize_t e = 0, k = 0;
+            long long candidates = 0, tests = 0;
+            for (int i = 0; i < threads; i++) {
+                for (Py_ssize_t s = 0; s < n_shells; s++)
+                    fl[s] |= work[i].self_found[s];
+                for (Py_ssize_t j = 0; j < work[i].n_examples && e < n_examples; j++, e++) {
+                    ex[2 * e] = work[i].examples[2 * j];
+                    ex[2 * e + 1] = work[i].examples[2 * j + 1];
+                }
+                if (work[i].n_found)
+                    memcpy(fd + 4 * k, work[i].found, 32 * work[i].n_found);
+                k += work[i].n_found;
+                candidates += work[i].candidates;
+                tests += work[i].tests;
+            }
+            result = Py_BuildValue("NNNLL", flags, examples, found, candidates, tests);
+        } else {
+            Py_XDECREF(flags);
+            Py_XDECREF(examples);
+            Py_XDECREF(found);
+        }
+    }
+    for (int i = 0; i < threads; i++) {
+        free(work[i].self_found);
+        free(work[i].examples);
+        free(work[i].found);
+        free(work[i].seen);
+    }
+    free_grid(&g);
+    PyBuffer_Release(&ab);
+    PyBuffer_Release(&sb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&vb);
+    return result;
+fail_a:
+    PyBuffer_Release(&ab);
+fail_s:
+    PyBuffer_Release(&sb);
+fail_f:
+    PyBuffer_Release(&fb);
+fail_v:
+    PyBuffer_Release(&vb);
+    return NULL;
+}
+
+/* ---- winding numbers by exact ray parity --------------------------------------------------- */
+
+enum { RAY_OK = 0, RAY_DEGENERATE = 1, RAY_ON_SURFACE = 2 };
+
+/* Signed crossings of the segment p -> q with the faces, or a degeneracy. */
+static int crossings(const double *V, const int64_t *F, Py_ssize_t m, const double *lo, const double *hi,
+                     const int8_t *axis, P p, P q, int64_t *count)
+{
+    double slo[3], shi[3];
+    for (int k = 0; k < 3; k++) {
+        slo[k] = dmin(p[k], q[k]);
+        shi[k] = dmax(p[k], q[k]);
+    }
+    int64_t total = 0;
+    for (Py_ssize_t t = 0; t < m; t++) {
+        if (axis[t] < 0)
+            continue;
+        int outside = 0;
+        for (int k = 0; k < 3; k++)
+            outside |= lo[3 * t + k] > shi[k] || hi[3 * t + k] < slo[k];
+        if (outside)
+            continue;
+        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
+        int sp = orient3d(a, b, c, p);
+        if (sp == 0) {
+            if (in_triangle(axis[t], p, a, b, c))
+                return RAY_ON_SURFACE;
+            if (orient3d(a, b, c, q) == 0)
+                return RAY_DEGENERATE;          /* the segment lies in the face's plane */
+            continue;                            /* meets the plane at p only, off the face */
+        }
+        int sq = orient3d(a, b, c, q);
+        if (sq == 0)
+            return RAY_DEGENERATE;
+        if (sp == sq)
+            continue;
+        int o1 = orient3d(p, q, a, b), o2 = orient3d(p, q, b, c), o3 = orient3d(p, q, c, a);
+        if ((o1 > 0 && o2 > 0 && o3 > 0) || (o1 < 0 && o2 < 0 && o3 < 0))
+            total += sp > 0 ? 1 : -1;
+        else if ((o1 >= 0 && o2 >= 0 && o3 >= 0) || (o1 <= 0 && o2 <= 0 && o3 <= 0))
+            return RAY_DEGENERATE;              /* through an edge or a vertex */
+    }
+    *count = total;
+    return RAY_OK;
+}
+
+static PyObject *py_winding(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *po;
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &po))
+        return NULL;
+    Py_buffer vb, fb, pb;
+    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
+        return NULL;
+    if (get_buffer(fo, &fb, 8, 0, "faces") < 0) {
+        PyBuffer_Release(&vb);
+        return NULL;
+    }
+    if (get_buffer(po, &pb, 8, 0, "points") < 0) {
+        PyBuffer_Release(&vb);
+        PyBuffer_Release(&fb);
+        return NULL;
+    }
+    const double *V = vb.buf, *points = pb.buf;
+    const int64_t *F = fb.buf;
+    Py_ssize_t m = fb.len / 24, k = pb.len / 24;
+    double *lo = malloc(sizeof(double) * 3 * (m ? m : 1)), *hi = malloc(sizeof(double) * 3 * (m ? m : 1));
+    int8_t *axis = malloc(m ? m : 1);
+    PyObject *out = PyBytes_FromStringAndSize(NULL, 8 * k);
+    int status = RAY_OK;
+    Py_ssize_t bad = -1;
+    if (lo && hi && axis && out) {
+        int64_t *w = (int64_t *)PyBytes_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (Py_ssize_t t = 0; t < m; t++) {
+            P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
+            axis[t] = (int8_t)triangle_axis(a, b, c);
+            for (int j = 0; j < 3; j++) {
+                lo[3 * t + j] = dmin(a[j], dmin(b[j], c[j]));
+                hi[3 * t + j] = dmax(a[j], dmax(b[j], c[j]));
+                glo[j] = dmin(glo[j], lo[3 * t + j]);
+                ghi[j] = dmax(ghi[j], hi[3 * t + j]);
+            }
+        }
+        double extent = 0.0;
+        for (int j = 0; j < 3; j++)
+            extent = dmax(extent, ghi[j] - glo[j]);
+        for (Py_ssize_t i = 0; i < k && status == RAY_OK; i++) {
+            P p = points + 3 * i;
+            status = RAY_DEGENERATE;
+            for (int attempt = 0; attempt < 64 && status == RAY_DEGENERATE; attempt++) {
+                /* Nearly along an axis (few faces meet the segment's box), tilted a little, and
+                 * ending beyond the faces' box; a degenerate ray is retried with another. */
+                int along = attempt % 3, sign = (attempt / 3) % 2 ? -1 : 1;
+                double tilt = 1e-3 * (1 + attempt / 6);
+                double q[3];
+                for (int j = 0; j < 3; j++) {
+                    double golden = fmod(0.6180339887498949 * (1 + j + 7 * attempt), 1.0) - 0.5;
+                    q[j] = p[j] + tilt * extent * golden;
+                }
+                double reach = sign > 0 ? ghi[along] - p[along] : p[along] - glo[along];
+                q[along] = p[along] + sign * (dmax(reach, 0.0) + extent + 1.0);
+                int64_t count = 0;
+                status = crossings(V, F, m, lo, hi, axis, p, q, &count);
+                w[i] = count;
+            }
+            if (status != RAY_OK)
+                bad = i;
+        }
+        Py_END_ALLOW_THREADS
+    }
+    free(lo);
+    free(hi);
+    free(axis);
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&pb);
+    if (!out)
+        return NULL;
+    if (!lo || !hi || !axis) {
+        Py_DECREF(out);
+        return PyErr_NoMemory();
+    }
+    if (status == RAY_ON_SURFACE) {
+        Py_DECREF(out);
+        PyErr_Format(PyExc_ValueError, "point %zd lies on the surface", bad);
+        return NULL;
+    }
+    if (status != RAY_OK) {
+        Py_DECREF(out);
+        PyErr_Format(PyExc_RuntimeError, "no generic ray found for point %zd", bad);
+        return NULL;
+    }
+    return out;
+}
+
+/* ---- batches of the predicates -------------------------------------------------------------- */
+
+static PyObject *py_orient3d_signs(PyObject *self, PyObject *args)
+{
+    PyObject *po;
+    if (!PyArg_ParseTuple(args, "O", &po))
+        return NULL;
+    Py_buffer pb;
+    if (get_buffer(po, &pb, 8, 0, "points") < 0)
+        return NULL;
+    Py_ssize_t k = pb.len / 96;
+    PyObject *out = PyBytes_FromStringAndSize(NULL, k);
+    if (out) {
+        const double *x = pb.buf;
+        int8_t *s = (int8_t *)PyBytes_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < k; i++)
+            s[i] = (int8_t)orient3d(x + 12 * i, x + 12 * i + 3, x + 12 * i + 6, x + 12 * i + 9);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&pb);
+    return out;
+}
+
+static PyObject *py_orient2d_signs(PyObject *self, PyObject *args)
+{
+    PyObject *po;
+    if (!PyArg_ParseTuple(args, "O", &po))
+        return NULL;
+    Py_buffer pb;
+    if (get_buffer(po, &pb, 8, 0, "points") < 0)
+        return NULL;
+    Py_ssize_t k = pb.len / 48;
+    PyObject *out = PyBytes_FromStringAndSize(NULL, k);
+    if (out) {
+        const double *x = pb.buf;
+        int8_t *s = (int8_t *)PyBytes_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < k; i++) {
+            const double *r = x + 6 * i;
+            s[i] = (int8_t)orient2d(r[0], r[1], r[2], r[3], r[4], r[5]);
+        }
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&pb);
+    return out;
+}
+
+static PyMethodDef methods[] = {
+    {"degenerate", py_degenerate, METH_VARARGS,
+     "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
+    {"pairs", py_pairs, METH_VARARGS,
+     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples, threads)\n"
+     "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests)"},
+    {"winding", py_winding, METH_VARARGS, "winding(vertices, faces, points) -> int64 winding numbers (bytes)"},
+    {"orient3d_signs", py_orient3d_signs, METH_VARARGS, "orient3d_signs(points (k, 4, 3)) -> int8 signs (bytes)"},
+    {"orient2d_signs", py_orient2d_signs, METH_VARARGS, "orient2d_signs(points (k, 3, 2)) -> int8 signs (bytes)"},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_intersect", NULL, -1, methods};
+
+PyMODINIT_FUNC PyInit__intersect(void)
+{
+    return PyModule_Create(&module);
+}
