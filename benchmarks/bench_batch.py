@@ -26,7 +26,7 @@ DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_data", "batch"
 
 def _part(rng):
     """A closed mesh of 1k–10k triangles: a perturbed icosphere or a prism, off the axes."""
-    from massprops import solids
+    from massprops.validation import solids
     from massprops.frames import Pose
     if rng.random() < 0.5:
         sphere = solids.icosphere(int(rng.integers(3, 5)), float(rng.uniform(0.5, 2.0)))
@@ -81,7 +81,7 @@ def _ms_by_format(per_file):
 
 
 def _batch(paths, jobs, output):
-    from massprops.batch import run_batch
+    from massprops.batch.run import run_batch
     start = time.perf_counter()
     summary = run_batch(paths, output=output, jobs=jobs)
     wall = time.perf_counter() - start

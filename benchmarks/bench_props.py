@@ -11,7 +11,7 @@ Measured, each the best of a few runs (the machine is shared):
 - end to end: ``massprops props --format json F`` against
   ``python -c "import trimesh; trimesh.load(F).mass_properties"``, each a fresh
   process; wall time and peak RSS (``wait4``'s ``ru_maxrss``);
-- kernel: ``massprops.integrate.integrate`` against
+- kernel: ``massprops.core.integrate.integrate`` against
   ``trimesh.triangles.mass_properties`` on the same triangles, ns/triangle,
   next to the memory-read floor (one pass summing the float64 triangles);
 - threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
@@ -89,7 +89,7 @@ def _torus_point(u, v, major=2.0, minor=0.5):
 def box_stl():
     path = _path("box12.stl")
     if not os.path.exists(path):
-        from massprops import solids
+        from massprops.validation import solids
         from massprops.io.stl import write_binary
         write_binary(path, solids.box((1.0, 2.0, 3.0), (0.5, 0.5, 0.5)).triangles)
     return path
@@ -192,7 +192,7 @@ def _time(function, repeat):
 def kernel(quick):
     """ns/triangle of the integration kernels on the icosphere, with the memory-read floor."""
     import trimesh
-    from massprops import integrate
+    from massprops.core import integrate
     from massprops.io import read
     mesh = read(icosphere_stl())
     triangles = mesh.vertices[mesh.faces]

@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "_data", "scene")
@@ -135,7 +135,7 @@ def _glb_file(count):
 
 def _ours(path, repeat):
     """Best-of-``repeat`` seconds to parse and to compute (total with principal axes)."""
-    from massprops.scene import compute_scene, load_scene
+    from massprops.scene.assembly import compute_scene, load_scene
     parse_s = compute_s = math.inf
     for _ in range(repeat):
         start = time.perf_counter()

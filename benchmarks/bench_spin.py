@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from massprops import dynamics
-from massprops.dynamics_exact import period, torque_free
+from massprops.dynamics.closed_form import period, torque_free
 
 MOMENTS = (1e-3, 1.0, 1.0005)
 OMEGA = (200.0, 1.0, 0.3)

@@ -10,10 +10,10 @@ import time
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
-from . import integrate as _integrate
+from .core import integrate as _integrate
 from .errors import MassPropsError, OptionError
-from .mesh import TriangleMesh
-from .parallel import PARALLEL_ABOVE, start
+from .mesh.surface import TriangleMesh
+from .core.parallel import PARALLEL_ABOVE, start
 from .properties import MassProperties, unit_factor
 from .resolution import annotate
 
@@ -67,13 +67,13 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
         first or second moments.
     density_field, density_map : optional
         Per-cell density of a volume mesh: a cell-data array's name, or
-        ``{group: density}`` (see :func:`massprops.volume.cell_densities`).
+        ``{group: density}`` (see :func:`massprops.mesh.volume.cell_densities`).
     shell : float, optional
         Treat the surface as a sheet of this thickness (mesh units), see
-        :mod:`massprops.shell`.
+        :mod:`massprops.mesh.sheet`.
     self_intersection : bool, optional
         Check that no shell intersects itself: True always, False never,
-        None (default) up to :data:`massprops.solid.SELF_INTERSECTION_UP_TO`
+        None (default) up to :data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`
         faces.  ``checks["self_intersection"]`` says what was found.
 
     Returns
@@ -124,11 +124,11 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
     if shell is not None:
         if density_field is not None or density_map is not None:
             raise OptionError("--density-field and --density-map need a volume mesh, not --shell")
-        from .shell import shell_mass_properties
+        from .mesh.sheet import shell_mass_properties
         props, checks, warnings = shell_mass_properties(mesh, shell, order=order, path=path, **material)
         triangles = int(mesh.faces.shape[0])
     else:
-        from .volume import VolumeMesh, volume_mass_properties
+        from .mesh.volume import VolumeMesh, volume_mass_properties
         if not isinstance(mesh, VolumeMesh):
             raise OptionError("--density-field and --density-map need a volume mesh (cells with cell data or "
                               "groups)", path=path, fix="give a .vtu, .msh, .inp, ... file with volume cells")
@@ -142,7 +142,7 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
 def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection=None):
     """Repair (on request), check, resolve the solid and integrate a mesh.
 
-    The solid is the region of positive winding number (:mod:`massprops.solid`):
+    The solid is the region of positive winding number (:mod:`massprops.mesh.solid`):
     repeated faces, zero-volume, nested and overlapping shells are resolved
     and said so; an inward surface is flipped.
 
@@ -151,12 +151,12 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
     (Moments, TriangleMesh, dict, list of str)
         Outward moments, the mesh integrated, the checks, and the warnings.
     """
-    from .solid import without_repeated_faces, without_unused_vertices
+    from .mesh.solid import without_repeated_faces, without_unused_vertices
 
     mesh = without_unused_vertices(mesh)
     warnings = list(mesh.notes)
     if repair:
-        from .repair import repair_mesh
+        from .mesh.repair import repair_mesh
         mesh, changes = repair_mesh(mesh, path=path)
         warnings += changes
     mesh, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
@@ -203,25 +203,25 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
 def _closed(mesh, path):
     """Check the mesh; a surface open only along seams of noise is welded closed (None when not)."""
     from .errors import OpenMeshError
-    from .mesh import check_shells
+    from .mesh.surface import check_shells
     try:
         checks, labels = check_shells(mesh, path=path)
         return mesh, checks, labels, None
     except OpenMeshError:
-        from .near_weld import weld_noise
+        from .mesh.near_weld import weld_noise
         welded = weld_noise(mesh, path=path)
     checks, labels = check_shells(welded.mesh, path=path)
     return welded.mesh, checks, labels, welded
 
 
 def _solid(mesh, labels, n_shells, **options):
-    from .solid import solid_of
+    from .mesh.solid import solid_of
     return solid_of(mesh, labels, n_shells, **options)
 
 
 def _widened(moments, solid, welded, order):
     """The moments' bounds widened for rounded union vertices, noise welds and dropped zero-volume shells."""
-    from .solid import swept_volume, widened
+    from .mesh.solid import swept_volume, widened
     swept, reach = solid.swept_volume, 0.0
     if welded is not None:
         swept += swept_volume(solid.mesh.vertices, solid.mesh.faces, welded.moved_vertices, welded.moved)

@@ -16,9 +16,30 @@ import numpy as np
 
 from .errors import OptionError
 
-__all__ = ["Pose", "quaternion_matrices", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
+__all__ = ["Pose", "matmul", "matvec", "quat_to_matrix", "quat_from_matrix", "quat_multiply", "quat_conjugate",
+           "axis_angle_quat", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
 
 _ORTHONORMAL_TOL = 1e-9
+
+
+def matmul(a, b):
+    """``a @ b`` for (stacks of) 3×3 matrices, shapes (..., 3, 3).
+
+    Each element is ``(a₀b₀ + a₁b₁) + a₂b₂``, every product and sum rounded
+    once, so the result is the same bits on every machine (BLAS kernels
+    differ in order and in fused multiply-adds with the CPU).
+    """
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return ((a[..., :, 0, None] * b[..., None, 0, :] + a[..., :, 1, None] * b[..., None, 1, :])
+            + a[..., :, 2, None] * b[..., None, 2, :])
+
+
+def matvec(a, v):
+    """``a @ v`` for (stacks of) 3×3 matrices (..., 3, 3) and vectors (..., 3), as :func:`matmul` rounds."""
+    a = np.asarray(a, dtype=float)
+    v = np.asarray(v, dtype=float)
+    return (a[..., 0] * v[..., None, 0] + a[..., 1] * v[..., None, 1]) + a[..., 2] * v[..., None, 2]
 
 
 def skew(v):
@@ -36,26 +57,57 @@ def _axis_rotation(axis, angle):
     return m
 
 
-def quaternion_matrices(quats):
-    """Rotation matrices of quaternions, normalised here (many at once).
+def quat_multiply(p, q):
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, shapes (..., 4)."""
+    pw, pv = p[..., :1], p[..., 1:]
+    qw, qv = q[..., :1], q[..., 1:]
+    return np.concatenate([pw * qw - np.sum(pv * qv, axis=-1, keepdims=True),
+                           pw * qv + qw * pv + np.cross(pv, qv)], axis=-1)
 
-    Parameters
-    ----------
-    quats : ndarray, shape (n, 4)
-        ``(w, x, y, z)``, scalar first; finite and non-zero (the caller checks).
 
-    Returns
-    -------
-    ndarray, shape (n, 3, 3)
+def quat_to_matrix(q):
+    """Rotation matrices (..., 3, 3) of quaternions (..., 4), normalised first."""
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+
+
+def quat_from_matrix(rotation):
+    """Unit quaternions (..., 4), ``w ≥ 0``, of proper rotation matrices (..., 3, 3).
+
+    Shepperd's method: the largest of ``4w², 4x², 4y², 4z²`` is taken from the
+    diagonal and the rest from off-diagonal sums, so no component is formed
+    from a small difference.
     """
-    q = np.asarray(quats, dtype=float)
-    norm = np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3])
-    w, x, y, z = (q / norm[:, None]).T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
-    ], axis=1)
+    m = np.asarray(rotation, dtype=float)
+    trace = np.trace(m, axis1=-2, axis2=-1)
+    diagonal = np.stack([trace, m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]], axis=-1)
+    big = np.argmax(diagonal, axis=-1)[..., None]
+    scale = np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(diagonal, big, -1) - trace[..., None], 0.0))
+    sums = np.stack([
+        np.stack([scale[..., 0] ** 2, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
+                  m[..., 1, 0] - m[..., 0, 1]], -1),
+        np.stack([m[..., 2, 1] - m[..., 1, 2], scale[..., 0] ** 2, m[..., 0, 1] + m[..., 1, 0],
+                  m[..., 0, 2] + m[..., 2, 0]], -1),
+        np.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], scale[..., 0] ** 2,
+                  m[..., 1, 2] + m[..., 2, 1]], -1),
+        np.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1],
+                  scale[..., 0] ** 2], -1)], -2)
+    q = np.take_along_axis(sums, big[..., None], -2)[..., 0, :] / (2.0 * scale)
+    return q * np.where(q[..., :1] < 0, -1.0, 1.0)
+
+
+def axis_angle_quat(axis, angle):
+    """Quaternions (..., 4) of rotations by ``angle`` (...) about unit ``axis`` (..., 3)."""
+    half = 0.5 * np.asarray(angle, dtype=float)[..., None]
+    return np.concatenate([np.cos(half), np.sin(half) * np.asarray(axis, dtype=float)], axis=-1)
+
+
+def quat_conjugate(q):
+    """The inverse rotation of unit quaternions (..., 4)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,7 +129,7 @@ class Pose:
             raise OptionError(f"a quaternion needs 4 finite numbers, got {quat!r}")
         if not float(q @ q) > 0:          # zero, or so small that its square underflows
             raise OptionError("a quaternion of zero length is no rotation", fix="give w,x,y,z with w=1 for none")
-        rotation = quaternion_matrices(q[None] if scalar_first else np.roll(q, 1)[None])[0]
+        rotation = quat_to_matrix(q if scalar_first else np.roll(q, 1))
         return cls(rotation, np.asarray(translation, dtype=float))
 
     @classmethod
@@ -96,7 +148,7 @@ class Pose:
         for letter, angle in zip(seq, angles):
             step = _axis_rotation("xyz".index(letter.lower()), angle)
             # Extrinsic: each new rotation applies after (left of) the previous ones.
-            rotation = step @ rotation if seq.islower() else rotation @ step
+            rotation = matmul(step, rotation) if seq.islower() else matmul(rotation, step)
         return cls(rotation, np.asarray(translation, dtype=float))
 
     @classmethod
@@ -105,7 +157,7 @@ class Pose:
         m = np.asarray(matrix, dtype=float)
         if m.shape != (3, 3) or not np.all(np.isfinite(m)):
             raise OptionError(f"a rotation matrix needs 9 finite numbers, got {np.size(m)}")
-        off = float(np.abs(m @ m.T - np.eye(3)).max())
+        off = float(np.abs(matmul(m, m.T) - np.eye(3)).max())
         if off > _ORTHONORMAL_TOL:
             raise OptionError(f"the rotation matrix is not orthonormal (|A Aᵀ − I| = {off:.3g})",
                               fix="give a proper rotation, or use a quaternion")
@@ -145,24 +197,19 @@ class Pose:
 
     def apply(self, points):
         """Map local points (…, 3) to the global frame."""
-        return np.asarray(points) @ self.rotation.T + self.translation
+        return matvec(self.rotation, points) + self.translation
 
     def as_quat(self, *, scalar_first=True):
-        """The rotation as a unit quaternion with w ≥ 0."""
-        m = self.rotation
-        w = math.sqrt(max(0.0, 1 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
-        x = math.copysign(math.sqrt(max(0.0, 1 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
-        y = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
-        z = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
-        q = np.array([w, x, y, z])
+        """The rotation as a unit quaternion with w ≥ 0 (:func:`quat_from_matrix`)."""
+        q = quat_from_matrix(self.rotation)
         return q if scalar_first else np.roll(q, -1)
 
     def compose(self, inner):
         """The pose of ``inner`` placed inside this pose: ``self ∘ inner``."""
-        return Pose(self.rotation @ inner.rotation, self.rotation @ inner.translation + self.translation)
+        return Pose(matmul(self.rotation, inner.rotation), matvec(self.rotation, inner.translation) + self.translation)
 
     def inverse(self):
-        return Pose(self.rotation.T, -self.rotation.T @ self.translation)
+        return Pose(self.rotation.T.copy(), -matvec(self.rotation.T, self.translation))
 
 
 def _numbers(text):
@@ -177,13 +224,13 @@ def _numbers(text):
 def rotate_inertia(inertia, rotation):
     """``A J Aᵀ``: an inertia tensor expressed in axes rotated by ``A``."""
     a = np.asarray(rotation, dtype=float)
-    return a @ np.asarray(inertia, dtype=float) @ a.T
+    return matmul(matmul(a, inertia), np.swapaxes(a, -1, -2))
 
 
 def parallel_axis(mass, offset):
     """``m (rᵀr I₃ − r rᵀ)``: what the parallel-axis theorem adds at offset ``r``."""
     r = np.asarray(offset, dtype=float)
-    return mass * (float(r @ r) * np.eye(3) - np.outer(r, r))
+    return mass * (float((r[0] * r[0] + r[1] * r[1]) + r[2] * r[2]) * np.eye(3) - np.outer(r, r))
 
 
 def inertia_about_frame(inertia_com_global, mass, center_of_mass, frame):

@@ -18,13 +18,14 @@ from functools import lru_cache
 
 import numpy as np
 
+from .core.rounding import U as _U
+
 __all__ = ["Principal", "principal", "axis_angle_bounds", "physical_checks", "DEFAULT_RTOL", "AXIS_ANGLE_TOLERANCE"]
 
 DEFAULT_RTOL = 1e-9
 # An axis whose angle bound exceeds this (radians) is not determined by the
 # tensor: its moment joins its nearest neighbour's degenerate group.
 AXIS_ANGLE_TOLERANCE = 1e-3
-_U = 2.0 ** -53
 # Below this length a local axis is taken to lie in the subspace's complement.
 _PROJECTION_FLOOR = 1e-6
 
@@ -132,26 +133,102 @@ def _cross(a, b):
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def _norm(x):
-    """Euclidean (Frobenius) norm as numpy.linalg.norm forms it, ``sqrt(x · x)`` on the flattened array,
-    bit for bit, without its dispatch."""
-    flat = np.asarray(x, dtype=float).ravel()
-    return math.sqrt(flat.dot(flat))
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _length(a):
+    return math.sqrt(_dot(a, a))
 
 
 def _subspace_axes(basis):
-    """The frame's axes projected into span(basis rows), Gram–Schmidt, in x, y, z order."""
+    """The frame's axes projected into span(basis), Gram–Schmidt, in x, y, z order (lists of 3 floats)."""
     chosen = []
-    for unit in np.eye(3):
-        v = basis.T @ (basis @ unit)
+    for unit in range(3):
+        v = [sum(b[unit] * b[i] for b in basis) for i in range(3)]
         for w in chosen:
-            v = v - (w @ v) * w
-        length = _norm(v)
+            projection = _dot(w, v)
+            v = [x - projection * y for x, y in zip(v, w)]
+        length = _length(v)
         if length > _PROJECTION_FLOOR:
-            chosen.append(v / length)
-        if len(chosen) == basis.shape[0]:
+            chosen.append([x / length for x in v])
+        if len(chosen) == len(basis):
             break
     return chosen
+
+
+# Cyclic Jacobi: at most this many sweeps (a 3×3 converges quadratically, in 3 to 5).
+_MAX_SWEEPS = 32
+# Backward error of one rotation applied in floating point, in units of u·‖J‖_F:
+# forming c and s (a few roundings, so Ĝ is orthogonal to a few u) and the two-sided
+# update (each new element from 2 products and 2 sums), generously rounded up.
+_ROTATION_ERROR = 32.0
+
+
+def _jacobi(a):
+    """Eigenvalues (ascending), eigenvectors (columns) and a bound on the backward error of a symmetric 3×3.
+
+    Cyclic Jacobi rotations in Python floats: only +, −, ×, ÷ and sqrt, each
+    correctly rounded, so the result is the same on every machine (LAPACK's
+    differs in the last bits with the CPU's kernels).  The matrix is scaled
+    by a power of two first (exact), so no square underflows or overflows.
+
+    Returns
+    -------
+    moments : list of 3 floats
+    vectors : list of 3 rows of 3 floats; column k is the unit axis of moments[k]
+    backward_error : float
+        ‖E‖₂ bound such that the moments are exactly those of ``a + E``:
+        the rounding of every rotation and the off-diagonal entries dropped.
+    """
+    size = max(abs(x) for row in a for x in row)
+    if size == 0.0 or not math.isfinite(size):
+        return [a[0][0], a[1][1], a[2][2]], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], 0.0
+    shift = -math.frexp(size)[1]
+    a = [[math.ldexp(x, shift) for x in row] for row in a]
+    norm = math.sqrt(sum(x * x for row in a for x in row))
+    v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    rotations, dropped = 0, 0.0
+    for _ in range(_MAX_SWEEPS):
+        if a[0][1] == 0.0 and a[0][2] == 0.0 and a[1][2] == 0.0:
+            break
+        for p, q in ((0, 1), (0, 2), (1, 2)):
+            apq = a[p][q]
+            if apq == 0.0:
+                continue
+            app, aqq = a[p][p], a[q][q]
+            if abs(apq) <= 0.25 * _U * min(abs(app), abs(aqq)) or abs(apq) <= _U * _U * norm:
+                # Below a quarter ulp of both diagonal entries (or u² of the norm): dropping it is part of the
+                # backward error, counted below.
+                dropped += abs(apq)
+                a[p][q] = a[q][p] = 0.0
+                continue
+            theta = (aqq - app) / (2.0 * apq)
+            if abs(theta) > 2.0 ** 500:
+                t = 0.5 / theta
+            else:
+                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                t = t if theta >= 0 else -t
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s = t * c
+            tau = s / (1.0 + c)
+            a[p][p], a[q][q] = app - t * apq, aqq + t * apq
+            a[p][q] = a[q][p] = 0.0
+            r = 3 - p - q
+            arp, arq = a[r][p], a[r][q]
+            a[r][p] = a[p][r] = arp - s * (arq + tau * arp)
+            a[r][q] = a[q][r] = arq + s * (arp - tau * arq)
+            for row in v:
+                vrp, vrq = row[p], row[q]
+                row[p] = vrp - s * (vrq + tau * vrp)
+                row[q] = vrq + s * (vrp - tau * vrq)
+            rotations += 1
+    remainder = math.sqrt(2.0 * (a[0][1] ** 2 + a[0][2] ** 2 + a[1][2] ** 2))
+    order = sorted(range(3), key=lambda k: a[k][k])
+    moments = [math.ldexp(a[k][k], -shift) for k in order]
+    vectors = [[row[k] for k in order] for row in v]
+    bound = (_ROTATION_ERROR * rotations * _U * norm + 2.0 * dropped + remainder) * (1.0 + 4.0 * _U)
+    return moments, vectors, math.ldexp(bound, -shift)
 
 
 def _symmetric(inertia):
@@ -165,7 +242,7 @@ def _symmetric(inertia):
 
 @lru_cache(maxsize=8)
 def _sine(angle):
-    return np.sin(angle)
+    return math.sin(angle)
 
 
 def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
@@ -192,27 +269,24 @@ def principal(inertia, *, error=0.0, rtol=DEFAULT_RTOL, extra_tolerance=0.0,
     Principal
     """
     inertia = _symmetric(inertia)
-    moments, vectors = np.linalg.eigh(inertia)
-    scale = max(map(abs, moments.tolist()))
-    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus LAPACK's backward error.
-    moments_error = 3.0 * error + 64.0 * _U * _norm(inertia)
+    moments, vectors, backward_error = _jacobi(inertia.tolist())
+    scale = max(map(abs, moments))
+    # Weyl: |Δλ| ≤ ‖ΔJ‖₂ ≤ 3·max|ΔJ_ij|; plus the eigensolver's backward error.
+    moments_error = 3.0 * error + backward_error
     # sin θ ≤ E / (gap − E) stays below sin(angle_tolerance) iff gap ≥ E (1 + 1/sin(angle_tolerance)).
     axis_gap = moments_error * (1.0 + 1.0 / _sine(angle_tolerance))
     tolerance = max(rtol * scale, moments_error, extra_tolerance, axis_gap)
-    groups = degenerate_groups(moments.tolist(), tolerance)
-    axes = [vectors[:, k] for k in range(3)]
+    groups = degenerate_groups(moments, tolerance)
+    axes = [[vectors[r][k] for r in range(3)] for k in range(3)]
     for group in groups:
-        basis = np.array([vectors[:, k] for k in group])
-        for k, axis in zip(group, _subspace_axes(basis)):
+        for k, axis in zip(group, _subspace_axes([axes[k] for k in group])):
             axes[k] = axis
-    # Dot products and norms stay numpy's (BLAS, on the same operands, so every bit is as it was); the
-    # rest is per element in Python floats, which round each product and difference as numpy does.
-    first = axes[0].tolist()
-    a1 = _canonical_sign(first)
-    projection = float((axes[0] if a1 is first else -axes[0]) @ axes[1])
-    a2 = _canonical_sign([b - projection * a for a, b in zip(a1, axes[1].tolist())])
-    length = _norm(a2)
+    a1 = _canonical_sign(axes[0])
+    projection = _dot(a1, axes[1])
+    a2 = _canonical_sign([b - projection * a for a, b in zip(a1, axes[1])])
+    length = _length(a2)
     a2 = [x / length for x in a2]
     axes = [[x + 0.0 for x in a] for a in (a1, a2, _cross(a1, a2))]       # + 0.0: no negative zeros
+    moments = np.array(moments)
     return Principal(moments, np.array(axes), tuple(tuple(g) for g in groups),
                      moments_error, tolerance, axis_angle_bounds(moments, moments_error, groups))

@@ -15,13 +15,13 @@ from functools import cached_property
 
 import numpy as np
 
+from .core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
-from .frames import Pose, parallel_axis, rotate_inertia, inertia_about_frame
+from .frames import Pose, inertia_about_frame, matvec, parallel_axis, rotate_inertia
 from .principal import DEFAULT_RTOL, principal
 
 __all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
 
-_U = 2.0 ** -53
 UNITS = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000), "um": Fraction(1, 10 ** 6),
          "in": Fraction(254, 10000), "ft": Fraction(3048, 10000)}
 _NO_UNIT = Fraction(1)
@@ -222,7 +222,7 @@ class MassProperties:
 
         Parameters
         ----------
-        moments : massprops.integrate.Moments
+        moments : massprops.core.integrate.Moments
             Of an outward-wound surface (positive volume).
         density : float, optional
             Mass per volume (kg/m³ with a unit); default 1.
@@ -290,7 +290,7 @@ class MassProperties:
         """Mass properties of a body whose density varies from cell to cell.
 
         ``mass_moments`` are the integrals with every term weighted by its
-        cell's density (:func:`massprops.integrate.integrate` ``weights=``):
+        cell's density (:func:`massprops.core.integrate.integrate` ``weights=``):
         :meth:`from_moments` with density 1 turns them into mass, center of
         mass and inertia by the same exact post-processing.  Volume, surface
         area and their bounds come from the unweighted ``volume_moments`` (of
@@ -354,7 +354,7 @@ class MassProperties:
     def rotated(self, rotation):
         """The properties of the part's geometry rotated by ``rotation`` about the local origin."""
         a = np.asarray(rotation, dtype=float)
-        return replace(self, center_of_mass=a @ self.center_of_mass,
+        return replace(self, center_of_mass=matvec(a, self.center_of_mass),
                        inertia_com=None if self.inertia_com is None else rotate_inertia(self.inertia_com, a))
 
     def translated(self, offset):
@@ -364,14 +364,15 @@ class MassProperties:
     def angular_momentum(self, omega):
         """``(H', H)``: angular momentum about the COM, local and global axes, for ω' in local axes."""
         self._need_inertia()
-        local = self.inertia_com @ np.asarray(omega, dtype=float)
-        return local, self.pose.rotation @ local
+        local = matvec(self.inertia_com, omega)
+        return local, matvec(self.pose.rotation, local)
 
     def kinetic_energy(self, omega):
         """``½ ω'ᵀ J_G' ω'``: rotational kinetic energy for ω' in local axes."""
         self._need_inertia()
         w = np.asarray(omega, dtype=float)
-        return 0.5 * float(w @ self.inertia_com @ w)
+        h = matvec(self.inertia_com, w)
+        return 0.5 * float((w[0] * h[0] + w[1] * h[1]) + w[2] * h[2])
 
     def _need_inertia(self):
         if self.inertia_com is None:

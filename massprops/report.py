@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 
-__all__ = ["result_dict", "to_json", "to_text", "csv_row", "CSV_COLUMNS", "to_csv"]
+__all__ = ["plain", "result_dict", "to_json", "to_text", "csv_row", "CSV_COLUMNS", "to_csv"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "a1x,a1y,a1z,a2x,a2y,a2z,a3x,a3y,a3z,err_volume,err_inertia,elapsed_s").split(",")
@@ -25,23 +25,23 @@ _CSV_HEADER = ",".join(CSV_COLUMNS) + "\n"          # no column name needs quoti
 _AS_IS = frozenset((str, int, float, bool, type(None)))
 
 
-def _plain(value):
+def plain(value):
     """numpy values to plain Python for json."""
     kind = type(value)
     if kind in _AS_IS:                      # exact types: a numpy float64 (a float subclass) is converted below
         return value
     if kind is dict:
-        return {k: v if type(v) in _AS_IS else _plain(v) for k, v in value.items()}
+        return {k: v if type(v) in _AS_IS else plain(v) for k, v in value.items()}
     if kind is list:
-        return [v if type(v) in _AS_IS else _plain(v) for v in value]
+        return [v if type(v) in _AS_IS else plain(v) for v in value]
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, (np.floating, np.integer)):
         return value.item()
     if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     return value
 
 
@@ -103,15 +103,16 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
     out["elapsed_s"] = result.elapsed_s
     if extra:
         out.update(extra)
-    return _plain(out)
+    return plain(out)
 
 
 _NUMBER_LIST = re.compile(r"\[\s*([-+0-9.eE,\s]+?)\s*\]")
 
 
-def to_json(objects):
-    """A JSON array of result objects, indented, numeric arrays on one line, floats at full precision."""
-    text = json.dumps(_plain(list(objects)), indent=2, allow_nan=False)
+def to_json(value):
+    """JSON text of a result object, or of an array of them (any iterable), indented, numeric arrays on one
+    line, floats at full precision."""
+    text = json.dumps(plain(value if isinstance(value, dict) else list(value)), indent=2, allow_nan=False)
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 

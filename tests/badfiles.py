@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from massprops import solids
+from massprops.validation import solids
 from massprops.io.stl import write_binary
 
 

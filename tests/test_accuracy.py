@@ -10,10 +10,10 @@ from hypothesis import given, settings, strategies as st
 
 import massprops.cli
 from conftest import random_rotation
-from massprops import accuracy, solids
+from massprops.validation import accuracy, solids
 from massprops.compute import mass_properties
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 from massprops.principal import axis_angle_bounds, physical_checks, principal
 
 

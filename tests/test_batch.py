@@ -13,7 +13,8 @@ import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
 import massprops.cli
-from massprops import batch, solids
+from massprops.batch import run as batch
+from massprops.validation import solids
 from massprops.io.stl import write_binary
 from badfiles import make_bad_files
 from oracle import exact_properties
@@ -310,7 +311,7 @@ def test_volume_and_shell_options_reach_every_file(runner, tmp_path):
     """--density-field for volume meshes and --shell for open surfaces, as in props."""
     import meshio
 
-    from massprops import solids
+    from massprops.validation import solids
 
     points = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1, 2)], float)
     cells = [[i, i + 1, i + 4, i + 3, i + 6, i + 7, i + 10, i + 9] for i in (0, 1)]

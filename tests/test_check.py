@@ -8,7 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 import massprops.cli
-from massprops import solids
+from massprops.validation import solids
 from massprops.frames import Pose
 from massprops.io import obj
 

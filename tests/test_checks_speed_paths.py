@@ -21,11 +21,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops import grouping, solids, topology
 from massprops.compute import mass_properties
+from massprops.core import grouping, topology
+from massprops.validation import solids
 from massprops.errors import MassPropsError, WindingError
-from massprops.mesh import TriangleMesh, check_mesh
-from massprops.topology import _edge_representatives, face_components
+from massprops.mesh.surface import TriangleMesh, check_mesh
+from massprops.core.topology import _edge_representatives, face_components
 
 # Every way the edge grouping and the shells can run (block sizes, kept-hash and sort limits).
 _PATHS = {

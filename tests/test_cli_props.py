@@ -7,7 +7,7 @@ import pytest
 
 from badfiles import make_bad_files
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.cli import main
 from massprops.io.stl import write_binary
 from massprops.report import CSV_COLUMNS
@@ -94,7 +94,7 @@ def test_units_density_and_mass(runner, bracket):
 
 
 def test_only_volume_forms_no_second_moments(runner, bracket, monkeypatch):
-    import massprops.integrate as integrate
+    import massprops.core.integrate as integrate
     orders = []
     real = integrate.integrate
     monkeypatch.setattr(integrate, "integrate", lambda *a, **k: orders.append(k.get("order")) or real(*a, **k))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops import solids
+from massprops.validation import solids
 from massprops.frames import Pose
 from massprops.io.stl import write_binary
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 
 
 def rotated(mesh, rotation, offset=(0.0, 0.0, 0.0)):

@@ -12,9 +12,9 @@ from fractions import Fraction
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from massprops import solids
-from massprops.grouping import group_ids
-from massprops.integrate import Moments, integrate
+from massprops.validation import solids
+from massprops.core.grouping import group_ids
+from massprops.core.integrate import Moments, integrate
 from massprops.io import obj
 from massprops.io.decimals import parse_decimals
 from massprops.properties import MassProperties, unit_factor

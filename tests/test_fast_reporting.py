@@ -2,8 +2,6 @@
 
 - input resolution from the vertex columns and the bounding box against the
   direct per-vertex formulas (``|x − c|`` over every vertex);
-- the principal axes, done per element in Python floats, against the same
-  steps in numpy arrays, on random and degenerate tensors;
 - the report's JSON conversion and CSV writer against the general ones
   (recursive isinstance conversion, ``csv.DictWriter``).
 """
@@ -16,12 +14,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from conftest import random_rotation
-from massprops import report, solids
+from massprops import report
+from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.mesh import TriangleMesh
-from massprops.principal import (AXIS_ANGLE_TOLERANCE, DEFAULT_RTOL, _subspace_axes, axis_angle_bounds,
-                                 degenerate_groups, principal)
+from massprops.mesh.surface import TriangleMesh
 from massprops.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
 
 seeds = st.integers(0, 2 ** 32 - 1)
@@ -86,58 +82,6 @@ def test_resolution_uses_the_largest_coordinate(dtype):
     assert resolution["coordinates"] == 0.5 * float(np.spacing(dtype(300.5)))
 
 
-def numpy_principal_axes(vectors, groups):
-    """The axes step of :func:`principal` in numpy arrays (its formulation before the per-element rewrite)."""
-    axes = [vectors[:, k] for k in range(3)]
-    for group in groups:
-        basis = np.array([vectors[:, k] for k in group])
-        for k, axis in zip(group, _subspace_axes(basis)):
-            axes[k] = axis
-
-    def canonical(axis):
-        k = int(np.argmax(np.abs(axis)))
-        return axis if axis[k] > 0 else -axis
-
-    a1 = canonical(axes[0])
-    a2 = canonical(axes[1] - (a1 @ axes[1]) * a1)
-    a2 /= np.linalg.norm(a2)
-    return np.array([a1, a2, np.cross(a1, a2)]) + 0.0
-
-
-def _tensors(seed):
-    rng = np.random.default_rng(seed)
-    moments = rng.uniform(0.1, 10.0, 3) * 10.0 ** rng.integers(-30, 30)
-    kind = rng.integers(0, 4)
-    if kind == 1:
-        moments[1] = moments[0]                       # a degenerate pair
-    elif kind == 2:
-        moments[:] = moments[0]                       # all three equal
-    rotation = random_rotation(seed) if rng.integers(0, 3) else np.eye(3)[rng.permutation(3)]
-    tensor = rotation @ np.diag(moments) @ rotation.T
-    if rng.integers(0, 2):
-        tensor[0, 1] = np.nextafter(tensor[0, 1], np.inf)        # not exactly symmetric
-    return tensor
-
-
-@settings(max_examples=150, deadline=None)
-@given(seeds, st.floats(0.0, 1e-6))
-def test_principal_matches_its_numpy_formulation(seed, relative_error):
-    tensor = _tensors(seed)
-    error = relative_error * float(np.abs(tensor).max())
-    result = principal(tensor, error=error)
-    symmetric = 0.5 * (tensor + tensor.T)
-    moments, vectors = np.linalg.eigh(symmetric)
-    assert result.moments.tobytes() == moments.tobytes()
-    moments_error = 3.0 * error + 64.0 * 2.0 ** -53 * float(np.linalg.norm(symmetric))
-    assert result.moments_error == moments_error
-    tolerance = max(DEFAULT_RTOL * float(np.abs(moments).max()), moments_error,
-                    moments_error * (1.0 + 1.0 / np.sin(AXIS_ANGLE_TOLERANCE)))
-    groups = degenerate_groups(moments, tolerance)
-    assert result.degenerate == tuple(tuple(g) for g in groups)
-    assert result.axes.tobytes() == numpy_principal_axes(vectors, groups).tobytes()
-    assert result.axes_error == axis_angle_bounds(list(moments), moments_error, groups)
-
-
 def reference_plain(value):
     """numpy values to plain Python, the general way."""
     if isinstance(value, np.ndarray):
@@ -158,7 +102,7 @@ class Checks(dict):
 def test_plain_converts_like_the_general_way():
     value = {"a": np.float64(1.5), "b": [np.int64(3), (np.float32(0.1), "x", None)], "c": np.arange(3.0),
              "d": Checks(ok=np.bool_(True), n=np.int32(2)), "e": [[1.0, -0.0], [np.nan, True]], "f": (1, 2)}
-    got, expected = report._plain(value), reference_plain(value)
+    got, expected = report.plain(value), reference_plain(value)
     assert repr(got) == repr(expected)
     assert [type(x) for x in got["b"][1]] == [float, str, type(None)] and type(got["a"]) is float
 

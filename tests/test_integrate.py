@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 from oracle import errors_against, exact_properties
 
 

@@ -1,6 +1,6 @@
 """The integration kernel's sums and bounds against exact rational arithmetic.
 
-Every sum :func:`massprops.integrate.integrate` returns (Σ det, Σ det·s,
+Every sum :func:`massprops.core.integrate.integrate` returns (Σ det, Σ det·s,
 Σ det·(s sᵀ + a aᵀ + b bᵀ + c cᵀ)) is recomputed here with ``Fraction`` on the
 same scaled coordinates, and the returned bound must cover the difference —
 on meshes built to reach every path: slivers (cyclic rotation), needles and
@@ -15,10 +15,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
-from massprops import solids
-from massprops.face_terms import _refine_hard_faces
-from massprops.integrate import integrate
-from massprops.integrate_dd import DET_ERROR, det_double_double
+from massprops.validation import solids
+from massprops.core.face_terms import _refine_hard_faces
+from massprops.core.integrate import integrate
+from massprops.core.integrate_dd import DET_ERROR, det_double_double
 
 
 def _det3(a, b, c):
@@ -134,7 +134,7 @@ def _corners(faces_points):
 
 def _float_determinants(corners):
     """The kernel's plain-float det and bound of faces given as (axis, corner, face)."""
-    import massprops.face_terms as kernel
+    import massprops.core.face_terms as kernel
     h = corners.shape[2]
     w = kernel.workspace(np.empty(kernel.WORKSPACE_ROWS * h), h)
     w["points"][:] = corners
@@ -170,7 +170,7 @@ def test_refined_faces_within_bound(seed, width, lean):
 
 def test_rotation_spares_most_slivers_the_double_double(monkeypatch):
     """A fine prism's slivers are mostly certified in plain float by a cyclic rotation."""
-    import massprops.face_terms as kernel
+    import massprops.core.face_terms as kernel
     vertices, faces = _posed(solids.regular_prism(2000, 1.0, 3.0), 11, (2.0, -1.0, 0.5))
     rotated = assert_bounds_cover(vertices, faces)
     monkeypatch.setattr(kernel, "_best_rotation", lambda corners, det, bound: (det, bound))
@@ -183,7 +183,7 @@ def test_rotation_spares_most_slivers_the_double_double(monkeypatch):
 @given(st.integers(0, 2 ** 32 - 1), st.sampled_from([0, 1, 2]))
 def test_rotation_starts_each_needle_at_its_shortest_edge(seed, turn):
     """A needle keeps the better of its own bound and the one from its shortest edge's first corner."""
-    from massprops.face_terms import _best_rotation
+    from massprops.core.face_terms import _best_rotation
     rng = np.random.default_rng(seed)
     a = rng.uniform(-1, 1, size=(48, 3))
     long_edge = rng.normal(size=(48, 3))
@@ -227,7 +227,7 @@ def test_face_indices_outside_the_vertices_are_refused():
 
 def test_radius_and_frame_match_the_scaled_coordinates():
     """The bounds' radius (from the bounding box) is the largest scaled coordinate, exactly."""
-    from massprops.integrate import _frame
+    from massprops.core.integrate import _frame
     rng = np.random.default_rng(5)
     for offset in (0.0, 0.3, 7.0, -1e6, 3e12):
         vertices = rng.normal(size=(200, 3)) * rng.uniform(1e-3, 1e3, size=3) + offset
@@ -258,8 +258,8 @@ coordinates = st.one_of(
 @given(st.lists(coordinates, min_size=2, max_size=40), st.sampled_from([1, 3, 1 << 16]))
 def test_the_frame_shift_is_exact_for_every_coordinate(values, block):
     """Whatever reference the frame takes (the box's centre or the safe fallback), x − reference is exact."""
-    import massprops.integrate as kernel
-    from massprops.integrate import _frame
+    import massprops.core.integrate as kernel
+    from massprops.core.integrate import _frame
     original = kernel._EXACT_CHECK_BLOCK
     kernel._EXACT_CHECK_BLOCK = block
     try:
@@ -274,7 +274,7 @@ def test_the_frame_shift_is_exact_for_every_coordinate(values, block):
 
 def test_a_float32_part_near_the_origin_is_shifted_to_its_centre():
     """Its coordinates are coarse enough that the centre subtracts exactly: fewer hard faces than at the origin."""
-    from massprops.integrate import _frame
+    from massprops.core.integrate import _frame
     axes = np.array([[-1.0, 3.0, 0.1], [-2.0, 2.0, 1.5], [0.25, 0.5, 0.75]], dtype=np.float32).astype(np.float64)
     reference, _, _ = _frame(axes)
     assert reference.tolist() == [1.0, 0.0, 0.5]

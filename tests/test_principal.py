@@ -1,13 +1,15 @@
 """Principal moments and axes: order, signs, handedness, and the degenerate-axis rule."""
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 from massprops.principal import principal
 
 
@@ -74,3 +76,43 @@ def test_distinct_moments_are_not_grouped():
 
 def test_error_bound_widens_degeneracy():
     assert principal(np.diag([1.0, 1.0 + 1e-7, 2.0]), error=1e-6).degenerate == ((0, 1),)
+
+
+def _rational_rotation(p, q, r):
+    """The Cayley transform (I − S)⁻¹(I + S) of the skew matrix of (p, q, r): an exactly rational rotation."""
+    p, q, r = (Fraction(x) for x in (p, q, r))
+    d = 1 + p * p + q * q + r * r
+    return [[(1 + p * p - q * q - r * r) / d, 2 * (p * q - r) / d, 2 * (p * r + q) / d],
+            [2 * (p * q + r) / d, (1 - p * p + q * q - r * r) / d, 2 * (q * r - p) / d],
+            [2 * (p * r - q) / d, 2 * (q * r + p) / d, (1 - p * p - q * q + r * r) / d]]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.integers(-50, 50), min_size=3, max_size=3), st.lists(st.integers(1, 10 ** 6), min_size=3,
+       max_size=3), st.sampled_from(["distinct", "pair", "all"]), st.integers(-30, 30))
+def test_moments_and_axes_are_within_their_bounds_of_the_exact_decomposition(params, numerators, kind, exponent):
+    rotation = _rational_rotation(*(Fraction(x, 7) for x in params))
+    moments = [Fraction(n, 1000) * Fraction(2) ** exponent for n in numerators]
+    if kind == "pair":
+        moments[1] = moments[0]
+    elif kind == "all":
+        moments = [moments[0]] * 3
+    exact = [[sum(rotation[i][k] * moments[k] * rotation[j][k] for k in range(3)) for j in range(3)]
+             for i in range(3)]
+    tensor = np.array([[float(x) for x in row] for row in exact])
+    # The rounded tensor's own eigenvalues are within ‖rounding‖₂ ≤ 3 · half an ulp of its largest element.
+    rounding = 3 * max(abs(Fraction(float(x)) - x) for row in exact for x in row)
+    result = principal(tensor)
+    order = sorted(range(3), key=lambda k: moments[k])
+    for got, k in zip(result.moments.tolist(), order):
+        assert abs(Fraction(got) - moments[k]) <= Fraction(result.moments_error) + rounding
+    axes = np.array([[float(rotation[i][k]) for i in range(3)] for k in order])      # exact axes as rows
+    if kind == "distinct" and not result.degenerate:
+        for k in range(3):
+            cosine = abs(float(result.axes[k] @ axes[k]))
+            assert np.arccos(min(1.0, cosine)) <= result.axes_error[k] + 1e-6
+    for group in result.degenerate:                # the group's axes span the exact eigenspace
+        exact_span = axes[list(group)]
+        projected = result.axes[list(group)] @ exact_span.T @ exact_span
+        np.testing.assert_allclose(projected, result.axes[list(group)], atol=1e-9)
+    check_conventions(result, tensor)

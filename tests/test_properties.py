@@ -5,11 +5,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.errors import OptionError
 from massprops.frames import Pose, parallel_axis
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 
 BRACKET = solids.l_bracket(3.0, 1.0, 0.7)
 BASE = mass_properties(BRACKET).properties

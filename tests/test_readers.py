@@ -5,11 +5,11 @@ import pytest
 import trimesh
 
 from conftest import random_rotation
-from massprops import solids
+from massprops.validation import solids
 from massprops.cli import main
 from massprops.compute import mass_properties
 from massprops.errors import MeshGeometryError, WindingError
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 from oracle import errors_against, exact_properties
 
 

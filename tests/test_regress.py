@@ -12,10 +12,10 @@ import pytest
 from click.testing import CliRunner
 
 import massprops.cli
-from massprops import solids
+from massprops.validation import solids
 from massprops.frames import Pose
 from massprops.io.stl import write_binary
-from massprops.reference_set import reference_solids, write_reference_set
+from massprops.validation.reference_set import reference_solids, write_reference_set
 
 
 def run(*args):

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import massprops.cli
-from massprops import scene as assembly
-from massprops import solids
+from massprops.scene import assembly
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.frames import Pose
 from massprops.io.stl import write_binary
@@ -203,11 +203,11 @@ def _instanced_glb(directory):
 
 
 def test_glb_instances_are_integrated_once_and_match_the_toml_equivalent(tmp_path, monkeypatch, runner):
-    import massprops.integrate
+    import massprops.core.integrate
     path, meshes, placements = _instanced_glb(tmp_path)
     calls = []
-    real = massprops.integrate.integrate
-    monkeypatch.setattr(massprops.integrate, "integrate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = massprops.core.integrate.integrate
+    monkeypatch.setattr(massprops.core.integrate, "integrate", lambda *a, **k: calls.append(1) or real(*a, **k))
     obj = _json(runner, path)
     assert len(calls) == 2
     assert obj["stats"]["meshes_integrated"] == 2 and obj["stats"]["instances"] == 6
@@ -271,13 +271,13 @@ def test_rotation_forms_round_trip(tmp_path_factory, euler, sequence):
 
 
 def test_only_what_is_asked_is_computed(tmp_path, monkeypatch):
-    import massprops.integrate
+    import massprops.core.integrate
     import massprops.properties
     _write(tmp_path, "slab.stl", solids.box(*BOXES["slab"]))
     _write(tmp_path, "block.stl", solids.box(*BOXES["block"]))
     orders, eigen = [], []
-    real_integrate, real_principal = massprops.integrate.integrate, massprops.properties.principal
-    monkeypatch.setattr(massprops.integrate, "integrate",
+    real_integrate, real_principal = massprops.core.integrate.integrate, massprops.properties.principal
+    monkeypatch.setattr(massprops.core.integrate, "integrate",
                         lambda *a, order=2, **k: orders.append(order) or real_integrate(*a, order=order, **k))
     monkeypatch.setattr(massprops.properties, "principal", lambda *a, **k: eigen.append(1) or real_principal(*a, **k))
     base = TWO_PARTS.format(angles=EULER["angles"], sequence=EULER["sequence"])

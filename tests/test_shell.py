@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 
 from test_volume import assert_matches  # exact comparison with error-bound coverage
 

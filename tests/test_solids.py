@@ -12,11 +12,11 @@ import pytest
 from click.testing import CliRunner
 
 import massprops.cli
-from massprops import analytic, solids
+from massprops.validation import analytic, solids
 from massprops.compute import mass_properties
-from massprops.exact import exact_properties
+from massprops.validation.exact import exact_properties
 from massprops.frames import Pose
-from massprops.reference_set import reference_solids
+from massprops.validation.reference_set import reference_solids
 
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "sample_meshes")
 

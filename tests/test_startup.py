@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops import grouping, integrate, solids
+from massprops.core import grouping, integrate
+from massprops.validation import solids
 from massprops.io.stl import write_binary
-from massprops.mesh import TriangleMesh, check_mesh, group_ids
-from massprops.topology import edge_balance, face_components
+from massprops.mesh.surface import TriangleMesh, check_mesh, group_ids
+from massprops.core.topology import edge_balance, face_components
 
 HEAVY = ("trimesh", "scipy", "meshio", "matplotlib", "dask")
 
@@ -166,7 +167,7 @@ def test_kernel_second_moment_within_its_bound_of_exact():
 
 
 def test_thread_count_follows_the_environment(monkeypatch):
-    from massprops.parallel import thread_count
+    from massprops.core.parallel import thread_count
     monkeypatch.setenv("MASSPROPS_THREADS", "1")
     assert thread_count() == 1
     monkeypatch.delenv("MASSPROPS_THREADS")

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from massprops.compute import mass_properties
-from massprops.mesh import TriangleMesh
+from massprops.mesh.surface import TriangleMesh
 
 
 @pytest.mark.parametrize("mesh", [trimesh.creation.icosphere(3), trimesh.creation.torus(1.0, 0.3),

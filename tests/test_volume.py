@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops import solids
+from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.volume import VolumeMesh, parse_density_map
+from massprops.mesh.volume import VolumeMesh, parse_density_map
 
 STEEL, ALUMINIUM = 7850.0, 2700.0
 

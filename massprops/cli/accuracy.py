@@ -17,7 +17,7 @@ def _write(directory, name, text):
 
 
 def _report(tessellation, extreme, quick):
-    from .. import accuracy as acc
+    from ..validation import accuracy as acc
     levels = "100 to 10k" if quick else "100 to 1M"
     return (f"## Smooth solids, {levels} triangles\n\n"
             "Largest relative error over volume, center of mass and inertia about the COM; "
@@ -43,7 +43,7 @@ def accuracy(out_dir, quick, no_plot):
     and a log-log plot (the ``plot`` extra).  Exit 1 if massprops's reported
     error bound failed to cover its true error on any row.
     """
-    from .. import accuracy as acc
+    from ..validation import accuracy as acc
 
     def progress(row):
         click.echo(f"  {row['case']:<34} {row['triangles']:>8} triangles", err=True)

@@ -82,7 +82,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     run goes on.  Exit 0 if every file is ok, 1 if any failed (the report is
     still complete).
     """
-    from .. import batch as batch_lib
+    from ..batch import run as batch_lib
     from ..errors import MassPropsError
 
     if output == "-":

@@ -44,7 +44,7 @@ def check(files, rtol, output_format):
 
 def _one(path, rtol):
     from ..compute import mass_properties
-    from ..crosscheck import explanation, trimesh_comparison
+    from ..validation.crosscheck import explanation, trimesh_comparison
 
     result = mass_properties(path)
     comparison = trimesh_comparison(path, result)

@@ -48,7 +48,7 @@ def _density_map(ctx, param, text):
     if text is None:
         return None                 # before the import: plain `props` stays light at start-up
     from ..errors import OptionError
-    from ..volume import parse_density_map
+    from ..mesh.volume import parse_density_map
     try:
         return parse_density_map(text)
     except OptionError as exc:

@@ -56,7 +56,7 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
                                  only=wanted, density_field=density_field, density_map=density_map, shell=shell)
         extra = None
         if check_trimesh:
-            from ..crosscheck import trimesh_comparison
+            from ..validation.crosscheck import trimesh_comparison
             extra = {"trimesh": trimesh_comparison(path, result)}
         return report.result_dict(result, omega=omega, about=about_points, only=wanted, extra=extra)
 

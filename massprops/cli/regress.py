@@ -50,7 +50,7 @@ def regress(expected, files, record, rtol, atol, junit, density, unit):
 
 
 def _record(expected, files, density, unit):
-    from .. import regress as lib
+    from ..validation import regress as lib
     from ..compute import mass_properties
 
     folder = os.path.dirname(os.path.abspath(expected))
@@ -78,7 +78,7 @@ def _record(expected, files, density, unit):
 
 
 def _compare(expected, rtol, atol, junit):
-    from .. import regress as lib
+    from ..validation import regress as lib
     from ..compute import mass_properties
 
     rows = options.guarded(lib.read_expected, expected, path=expected)

@@ -18,7 +18,7 @@ def solids(directory):
     solid, and the tessellation error between them.  Check massprops (or a
     change) against them with `massprops regress DIRECTORY/expected.csv`.
     """
-    from ..reference_set import write_reference_set
+    from ..validation.reference_set import write_reference_set
 
     rows = options.guarded(write_reference_set, directory, path=directory)
     if rows is None:

@@ -1,1 +1,3 @@
-"""Compiled kernels and the thin Python faces that call them."""
+"""The kernel: grouping equal keys (welding), edge matching and shells, the
+signed-tetrahedron integrals with their certified error bounds, and exact
+triangle-intersection and point-in-solid decisions (:mod:`.intersect`, compiled)."""

@@ -5,7 +5,7 @@ exactly (a certified floating-point filter with an error-free expansion
 behind it), so "these triangles do not meet" is never a rounding accident.
 
 Coordinates are first shifted and scaled by a power of two, exactly (the
-frame of :func:`massprops.integrate.reference_frame`), so the compiled
+frame of :func:`massprops.core.integrate.reference_frame`), so the compiled
 predicates work on numbers of about unit size.  Their expansions are exact
 while no non-zero scaled coordinate is below ``2**-200`` (no product of
 differences can underflow).  Smaller ones (a value 1e-60 of the part's size
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..integrate import reference_frame
+from .integrate import reference_frame
 
 __all__ = ["ExactGeometry", "Intersections"]
 
@@ -115,7 +115,7 @@ class ExactGeometry:
         -------
         Intersections
         """
-        from ..parallel import thread_count
+        from .parallel import thread_count
 
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         shells = np.ascontiguousarray(shells, dtype=np.int64)

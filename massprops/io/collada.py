@@ -20,8 +20,8 @@ from fractions import Fraction
 import numpy as np
 
 from ..errors import MeshFormatError
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 __all__ = ["read", "asset"]
 

@@ -1,8 +1,8 @@
 """Volume meshes (VTU/VTK, Gmsh MSH, Abaqus INP, MED, XDMF, ...) through meshio, imported only when read.
 
-A file with volume cells becomes a :class:`massprops.volume.VolumeMesh`
+A file with volume cells becomes a :class:`massprops.mesh.volume.VolumeMesh`
 (surface cells in it, such as boundary-condition faces, are ignored); a file
-with surface cells only becomes a :class:`massprops.mesh.TriangleMesh`.
+with surface cells only becomes a :class:`massprops.mesh.surface.TriangleMesh`.
 Higher-order cells are integrated with straight edges through their corner
 nodes (meshio lists corners first), and a warning says so.
 """
@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshFormatError
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 __all__ = ["read", "EXTENSIONS"]
 
@@ -58,7 +58,7 @@ def read(path):
     """
     import os
 
-    from ..volume import VolumeMesh
+    from ..mesh.volume import VolumeMesh
 
     mesh = _load(path)
     points = np.asarray(mesh.points, dtype=np.float64)

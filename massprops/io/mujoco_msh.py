@@ -14,8 +14,8 @@ import os
 import numpy as np
 
 from ..errors import MeshFormatError
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 
 __all__ = ["read", "read_mujoco"]
 

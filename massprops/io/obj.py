@@ -25,8 +25,8 @@ import warnings
 import numpy as np
 
 from ..errors import MeshFormatError
-from ..mesh import TriangleMesh
-from . import register_format
+from ..mesh.surface import TriangleMesh
+from .registry import register_format
 from .decimals import PAD as _PAD                 # bytes kept free around the text for the decimal windows
 
 _VERTEX = re.compile(rb"^v[ \t]+([^\n]*)", re.M)

@@ -1,0 +1,168 @@
+"""The report file of a batch: records appended as files finish, sorted at the end, and its resume state.
+
+A record is one file's text in the report: a CSV row with the SPEC's columns
+(written by :func:`massprops.report.to_csv`, the one writer of those columns)
+or a JSON line.  The state file next to the report (``REPORT.state.jsonl``)
+holds the run's settings and each file's size and modification time, which
+is what tells an unchanged file from a changed one on ``--resume``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+
+from .. import report
+from ..errors import OptionError
+
+__all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_error"]
+
+
+def csv_line(row):
+    """One CSV line (with newline) for a row dict keyed by ``report.CSV_COLUMNS``."""
+    # to_csv is the one writer of the SPEC's columns; drop its header line
+    return report.to_csv([row]).split("\n", 1)[1]
+
+
+def record(obj, status, message, output_format):
+    """The report line of one file from its ``props`` object (just ``{"file": ...}`` on error).
+
+    ``"csv"``: the SPEC's columns, floats as ``repr``; ``"jsonl"``: the object
+    with ``status`` and ``message`` first.
+    """
+    if output_format == "jsonl":
+        head = {"file": obj["file"], "status": status, "message": message}
+        return json.dumps({**head, **obj}, allow_nan=False) + "\n"
+    return csv_line(report.csv_row(obj, status=status, message=message))
+
+
+def state_path(output):
+    """The resume state file kept next to the report ``output``."""
+    return os.fspath(output) + ".state.jsonl"
+
+
+def file_stat(path):
+    """``[size, mtime_ns]`` of ``path``, or None if it cannot be read."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return [st.st_size, st.st_mtime_ns]
+
+
+def _complete_lines(path):
+    """The report's lines, without a last line cut short by an interruption."""
+    with open(path, encoding="utf-8", newline="") as f:
+        text = f.read()
+    return [line + "\n" for line in text.split("\n")[:-1]]
+
+
+def _records_in(output, output_format):
+    """``{file: line}`` of an existing report (empty if absent or not a batch report)."""
+    try:
+        lines = _complete_lines(output)
+    except (OSError, UnicodeDecodeError):
+        return {}
+    records = {}
+    if output_format == "csv":
+        if not lines or lines[0].rstrip("\r\n").split(",") != list(report.CSV_COLUMNS):
+            return {}
+        for row in csv.DictReader(lines):
+            if None not in row.values() and None not in row and row["status"] in ("ok", "error"):
+                records[row["file"]] = csv_line(row)
+        return records
+    for line in lines:
+        try:
+            obj = json.loads(line)
+            records[obj["file"]] = line
+        except (ValueError, KeyError, TypeError):
+            continue
+    return records
+
+
+def _state_in(output, header):
+    """``{file: [size, mtime_ns]}`` from the state file, or None if it was made with other settings."""
+    try:
+        lines = _complete_lines(state_path(output))
+        if not lines or json.loads(lines[0]) != header:
+            return None
+        return {e["file"]: e["stat"] for e in map(json.loads, lines[1:])}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def plan(files, output, output_format, header, resume):
+    """Split ``files`` into reused records ``{file: (line, stat)}`` and files to compute."""
+    notes = []
+    state = _state_in(output, header) if resume else None
+    if resume and state is None and os.path.exists(output):
+        notes.append("the report's state file is missing or from other settings; recomputing every file")
+    records = _records_in(output, output_format) if state else {}
+    kept, todo = {}, []
+    for path in files:
+        stat = file_stat(path)
+        if stat is not None and path in records and state.get(path) == stat:
+            kept[path] = (records[path], stat)
+        else:
+            todo.append(path)
+    return kept, todo, notes
+
+
+class ReportWriter:
+    """Appends records as they come; :meth:`finish` rewrites the report sorted by path."""
+
+    def __init__(self, output, output_format, header, kept):
+        self.output, self.head = output, (report.to_csv([]) if output_format == "csv" else "")
+        self.lines = {f: line for f, (line, _) in kept.items()}
+        self.report_file = self.state_file = None
+        if output is not None:
+            try:
+                self.report_file = open(output, "w", encoding="utf-8", newline="")
+                self.state_file = open(state_path(output), "w", encoding="utf-8")
+            except OSError as exc:
+                self.close()
+                raise OptionError(f"cannot write the report ({exc.strerror or exc})", path=output,
+                                  fix="give a path in an existing, writable folder") from None
+            self.report_file.write(self.head + "".join(self.lines.values()))
+            self.state_file.write(json.dumps(header) + "\n")
+            self.state_file.writelines(json.dumps({"file": f, "stat": s}) + "\n" for f, (_, s) in kept.items())
+            self._flush()
+
+    def _flush(self):
+        self.report_file.flush()
+        self.state_file.flush()
+
+    def add(self, outcome, stat):
+        self.lines[outcome.file] = outcome.line
+        if self.report_file is not None:
+            # the row first: a row without its state entry is merely recomputed on resume
+            self.report_file.write(outcome.line)
+            self.report_file.flush()
+            if stat is not None:
+                self.state_file.write(json.dumps({"file": outcome.file, "stat": stat}) + "\n")
+            self._flush()
+
+    def close(self):
+        for f in (self.report_file, self.state_file):
+            if f is not None:
+                f.close()
+
+    def finish(self):
+        """Close, and write the sorted report; returns its text when there is no output file."""
+        self.close()
+        text = self.head + "".join(self.lines[f] for f in sorted(self.lines))
+        if self.output is None:
+            return text
+        partial = self.output + ".sorting"
+        with open(partial, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+        os.replace(partial, self.output)
+        return None
+
+
+def is_error(line, output_format):
+    """Whether a report line is an error record."""
+    if output_format == "jsonl":
+        return json.loads(line).get("status") != "ok"
+    return next(csv.reader([line]))[1] != "ok"

@@ -1,0 +1,121 @@
+"""What a spin run writes: the time series as CSV, plots, and the summary lines."""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+
+from ..errors import MassPropsError
+from .integrators import trajectory_error
+
+__all__ = ["write_csv", "plot_trajectory", "plot_work_precision", "summary", "work_precision_table"]
+
+CSV_HEADER = "t,wx,wy,wz,qw,qx,qy,qz,Hx,Hy,Hz,K"
+
+
+def _pyplot():
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise MassPropsError("--plot needs matplotlib, which is not installed",
+                             fix="pip install 'massprops[plot]'") from None
+    return plt
+
+
+@contextlib.contextmanager
+def _writable(path):
+    try:
+        yield
+    except OSError as exc:
+        raise MassPropsError(f"cannot write the file ({exc.strerror or exc})", path=path,
+                             fix="check that the directory exists and is writable") from None
+
+
+def write_csv(path, trajectory):
+    """The time series: t, ω' (body), quaternion of A (w,x,y,z), H (world), K."""
+    table = np.column_stack([trajectory.t, trajectory.omega, trajectory.quat, trajectory.momentum,
+                             trajectory.energy])
+    with _writable(path):
+        np.savetxt(path, table, delimiter=",", header=CSV_HEADER, comments="", fmt="%.17g")
+    return path
+
+
+def plot_trajectory(path, trajectory, title):
+    plt = _pyplot()
+    figure, panels = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    for k, name in enumerate("xyz"):
+        panels[0].plot(trajectory.t, trajectory.omega[:, k], label=f"ω'{name}")
+        panels[1].plot(trajectory.t, trajectory.momentum[:, k], label=f"H{name}")
+    panels[2].plot(trajectory.t, trajectory.energy, label="K")
+    for panel, label in zip(panels, ("ω' [rad/s], body axes", "H, world axes", "K")):
+        panel.set_ylabel(label)
+        panel.legend(loc="upper right", fontsize=8)
+        panel.grid(True, alpha=0.3)
+    panels[2].set_xlabel("t [s]")
+    figure.suptitle(title)
+    return _save(plt, figure, path)
+
+
+def _save(plt, figure, path):
+    figure.tight_layout()
+    try:
+        with _writable(path):
+            figure.savefig(path, dpi=110)
+    finally:
+        plt.close(figure)
+    return path
+
+
+def plot_work_precision(path, rows, title):
+    plt = _pyplot()
+    figure, panel = plt.subplots(figsize=(7, 5))
+    for method in dict.fromkeys(r.method for r in rows):
+        mine = [r for r in rows if r.method == method]
+        panel.loglog([r.elapsed_s for r in mine], [max(r.omega_error, 1e-17) for r in mine], marker="o",
+                     linestyle="-" if method.startswith("split") else "--", label=method)
+    panel.set_xlabel("run time [s]")
+    panel.set_ylabel("max relative error of ω' against the closed form")
+    panel.grid(True, which="major", alpha=0.3)
+    panel.legend(fontsize=8)
+    panel.set_title(title)
+    return _save(plt, figure, path)
+
+
+def summary(trajectory, torque, torque_frame, exact):
+    """Lines describing drift (and the error against the closed form when torque-free)."""
+    lines = [f"method {trajectory.method}: {trajectory.steps} "
+             f"{'steps' if trajectory.method.startswith('split') else 'rhs evaluations'}, "
+             f"{trajectory.elapsed_s:.3g} s, {len(trajectory.t)} samples to t = {trajectory.t[-1]:.6g} s"]
+    h0 = trajectory.momentum[0]
+    size = float(np.linalg.norm(h0)) or 1.0
+    k0 = float(trajectory.energy[0]) or 1.0
+    if torque is None:
+        lines.append(f"energy drift      max |K − K0| / K0   = {np.abs(trajectory.energy - k0).max() / k0:.3g}")
+        lines.append("momentum drift    max |H − H0| / |H0| = "
+                     f"{np.linalg.norm(trajectory.momentum - h0, axis=1).max() / size:.3g}")
+    else:
+        lines.append(f"energy            K(T) / K0 = {trajectory.energy[-1] / k0:.6g}")
+        if torque_frame == "world":
+            expected = h0 + np.outer(trajectory.t, torque)
+            scale = float(np.linalg.norm(expected, axis=1).max()) or 1.0
+            lines.append("momentum          max |H − (H0 + T t)| / max |H| = "
+                         f"{np.linalg.norm(trajectory.momentum - expected, axis=1).max() / scale:.3g}")
+    lines.append(f"quaternion norm   max ||q| − 1|      = "
+                 f"{np.abs(np.linalg.norm(trajectory.quat, axis=1) - 1).max():.3g}")
+    if exact is not None:
+        omega_error, attitude_error = trajectory_error(trajectory, exact)
+        lines.append(f"closed form       ω' error {omega_error:.3g} (relative), attitude error "
+                     f"{attitude_error:.3g} rad")
+    return lines
+
+
+def work_precision_table(rows):
+    lines = ["| method | rtol | steps / evaluations | time [s] | ω' error | attitude error [rad] |",
+             "| --- | --- | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r.method} | {r.rtol:.0e} | {r.steps} | {r.elapsed_s:.3g} | {r.omega_error:.2e} | "
+                     f"{r.attitude_error:.2e} |")
+    return "\n".join(lines)

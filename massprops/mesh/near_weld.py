@@ -1,0 +1,190 @@
+"""Open edges whose ends differ by CAD noise: weld them, or say how wide the gaps are.
+
+Vertices are welded by exact coordinates.  CAD exports sometimes leave a
+coordinate that is "zero" as 1e-18 on one side of an edge and 0.0 on the
+other: exactly welded, the surface is open along such seams, although no
+gap is wider than the coordinates' own rounding.  When every boundary
+vertex lies within a few units in the last place of the part's largest
+coordinate (:data:`NOISE_ULPS`) of another, they are welded, the result must
+then be closed, and the displacement goes into the error bound (like the
+input's own resolution).  Otherwise the mesh is refused with the number of
+boundary edges and the widest gap, so the user knows whether to weld or to
+fill holes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import OpenMeshError
+from ..core.topology import match_edges
+
+__all__ = ["NOISE_ULPS", "Welded", "weld_noise"]
+
+# Boundary vertices this many units in the last place (of the largest coordinate, in the
+# precision the file stored) apart or closer are welded.
+NOISE_ULPS = 4
+
+
+class Welded:
+    """A mesh closed by welding near-coincident vertices, and how far they moved."""
+
+    def __init__(self, mesh, moved_vertices, moved, count):
+        self.mesh = mesh
+        self.moved_vertices = moved_vertices       # vertex indices (of ``mesh``) whose coordinates changed
+        self.moved = moved                         # bound on each one's move, mesh units
+        self.count = count                         # vertices merged into others
+
+
+def _boundary_vertices(faces, n):
+    """Vertices at the ends of unmatched edges, and the number of such (undirected) edges."""
+    representative, _, balance = match_edges(faces, n)
+    unmatched = balance[representative] != 0
+    rows = np.flatnonzero(unmatched)
+    tails = faces.ravel()[rows]
+    following = rows + 1
+    following[rows % 3 == 2] -= 3
+    heads = faces.ravel()[following]
+    edges = np.unique(np.sort(np.column_stack([tails, heads]), axis=1), axis=0)
+    return np.unique(edges), edges
+
+
+def _tolerance(vertices, source_dtype):
+    storage = np.dtype(source_dtype).type if np.dtype(source_dtype).kind == "f" else np.float64
+    largest = float(np.abs(vertices).max()) if vertices.size else 0.0
+    return NOISE_ULPS * float(np.spacing(storage(largest)))
+
+
+def weld_noise(mesh, *, path=None):
+    """Weld boundary vertices that differ by noise, or raise the open-mesh refusal with the gap sizes.
+
+    Returns
+    -------
+    Welded
+
+    Raises
+    ------
+    OpenMeshError
+        The gaps are wider than noise (or welding does not close the mesh).
+    """
+    vertices, faces = mesh.vertices, mesh.faces
+    boundary, edges = _boundary_vertices(faces, vertices.shape[0])
+    points = vertices[boundary]
+    tolerance = _tolerance(vertices, mesh.source_dtype)
+    pairs = _close_pairs(points, tolerance)
+    if pairs.size:
+        target = _clusters(boundary.size, pairs)
+        welded_faces = _relabel(faces, boundary, target)
+        _, _, balance = match_edges(welded_faces, vertices.shape[0])
+        if not np.any(balance):
+            movers = np.flatnonzero(target != np.arange(boundary.size))
+            survivors = np.unique(target[movers])
+            # Every face that used a merged vertex now uses its survivor: the survivors' neighbourhoods
+            # moved by at most the distance between the merged points.
+            distance = np.max(np.abs(points[movers] - points[target[movers]]), axis=1) * np.sqrt(3.0)
+            moved = np.zeros(boundary.size)
+            np.maximum.at(moved, target[movers], distance)
+            return Welded(mesh.with_faces(welded_faces), boundary[survivors], moved[survivors] * (1 + 1e-12),
+                          int(movers.size))
+    problem, widest = _gap_message(edges, points)
+    fix = "close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS"
+    extent = float(np.max(np.ptp(vertices[np.unique(faces)], axis=0)))
+    if 0.0 < widest <= 1e-6 * extent:
+        fix = (f"the gaps are tiny: weld vertices closer than {widest:.2g} (e.g. trimesh's merge_vertices, "
+               "MeshLab's 'Merge Close Vertices'), or pass --repair")
+    raise OpenMeshError(problem, path=path, fix=fix)
+
+
+def _close_pairs(points, tolerance):
+    """Pairs (k, 2) of points no farther apart than ``tolerance`` in every coordinate.
+
+    Sorted along x, such pairs sit in runs of neighbours less than
+    ``tolerance`` apart in x; with noise-sized tolerances the runs are short.
+    """
+    order = np.argsort(points[:, 0], kind="stable")
+    x = points[order, 0]
+    near = np.diff(x) <= tolerance
+    pairs = []
+    start = None
+    for i, close in enumerate(np.append(near, False).tolist()):
+        if close and start is None:
+            start = i
+        elif not close and start is not None:
+            run = order[start:i + 1]
+            for a in range(run.size):
+                gap = np.max(np.abs(points[run[a + 1:]] - points[run[a]]), axis=1)
+                pairs += [(int(run[a]), int(b)) for b in run[a + 1:][gap <= tolerance]]
+            start = None
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def _clusters(n, pairs):
+    """For each of n points, the smallest index of its cluster (pairs joined transitively)."""
+    parent = np.arange(n)
+    changed = True
+    while changed:
+        low = np.minimum(parent[pairs[:, 0]], parent[pairs[:, 1]])
+        before = parent.copy()
+        np.minimum.at(parent, pairs[:, 0], low)
+        np.minimum.at(parent, pairs[:, 1], low)
+        parent = parent[parent]
+        changed = not np.array_equal(before, parent)
+    return parent
+
+
+def _relabel(faces, boundary, target):
+    relabel = np.arange(int(faces.max()) + 1)
+    relabel[boundary] = boundary[target]
+    return relabel[faces]
+
+
+def _widest_gap(points, labels):
+    """Largest distance from a point to the nearest point of another label (blocks of rows; a k-d tree when many)."""
+    if points.shape[0] > 4096:
+        from scipy.spatial import cKDTree          # only for large open meshes, on the way to a refusal
+        widest = 0.0
+        for label in np.unique(labels):
+            distance, _ = cKDTree(points[labels != label]).query(points[labels == label])
+            widest = max(widest, float(distance.max()))
+        return widest
+    widest = 0.0
+    for start in range(0, points.shape[0], 256):
+        block = points[start:start + 256]
+        distance = np.linalg.norm(block[:, None, :] - points[None, :, :], axis=2)
+        distance[labels[start:start + 256, None] == labels[None, :]] = np.inf
+        widest = max(widest, float(distance.min(axis=1).max()))
+    return widest
+
+
+def _loops(edges):
+    """Label of the boundary loop (connected set of boundary edges) of each boundary vertex, and the count."""
+    vertices = np.unique(edges)
+    local = np.searchsorted(vertices, edges)
+    parent = np.arange(vertices.size)
+    changed = True
+    while changed:
+        low = np.minimum(parent[local[:, 0]], parent[local[:, 1]])
+        before = parent.copy()
+        np.minimum.at(parent, local[:, 0], low)
+        np.minimum.at(parent, local[:, 1], low)
+        parent = parent[parent]
+        changed = not np.array_equal(before, parent)
+    labels = np.unique(parent, return_inverse=True)[1]
+    return labels, int(labels.max()) + 1
+
+
+def _gap_message(edges, points):
+    """The refusal's text and the widest gap (``points``: the boundary vertices, in ``np.unique(edges)`` order).
+
+    With one opening, the gap is its extent; with several, the largest
+    distance from a boundary vertex to the nearest boundary vertex of another
+    opening (for a seam of CAD noise, two openings that nearly coincide, that
+    is the noise).
+    """
+    count = edges.shape[0]
+    labels, loops = _loops(edges)
+    if loops == 1:
+        across = float(np.max(np.ptp(points, axis=0)))
+        return f"mesh is open: {count} boundary edges around one opening {across:.3g} across", across
+    widest = _widest_gap(points, labels)
+    return f"mesh is open: {count} boundary edges around {loops} openings up to {widest:.3g} apart", widest

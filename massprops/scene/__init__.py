@@ -1,0 +1,12 @@
+"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF scene graph.
+
+:mod:`.model` says what a scene is, :mod:`.toml_file` and :mod:`.graph` read
+one, :mod:`.assembly` computes every part and the total, and :mod:`.report`
+renders the result.
+"""
+
+from .assembly import SceneResult, combine_parts, compute_scene, load_scene
+from .model import Frame, Part, Placements, ReportRequest, Scene
+
+__all__ = ["load_scene", "compute_scene", "combine_parts", "SceneResult", "Scene", "Part", "Placements", "Frame",
+           "ReportRequest"]

@@ -1,0 +1,279 @@
+"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF scene graph.
+
+Each part ``i`` has a pose ``(A_i, r_i)`` (see :mod:`massprops.frames`).  A mesh
+used by several parts is read and integrated once; every instance reuses its
+centroidal tensor through ``J_Gi = A_i J_Gi' A_iᵀ`` and the parallel-axis
+terms.  The assembly's total is formed with centred formulas: each part's
+``J_Gi`` is shifted to the total center of mass (``ρ_i = r_i − r``), so no
+large, nearly equal numbers are subtracted.
+
+Scene files are read by :mod:`massprops.scene.toml_file` (the TOML format, with
+compact lists of many instances held as arrays) and :mod:`massprops.scene.graph`
+(GLB/glTF/3MF, with exact non-uniform scale).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..compute import QUANTITIES, checked_moments
+from ..core.rounding import U as _U
+from ..errors import MassPropsError, MeshFormatError, MeshReadError
+from ..frames import Pose, matmul, matvec, rotate_inertia
+from ..properties import ErrorBounds, MassProperties, unit_factor
+from .model import Scene
+
+__all__ = ["SceneResult", "load_scene", "compute_scene", "combine_parts"]
+
+SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf")
+
+
+@dataclass(frozen=True, eq=False)
+class MeshRecord:
+    """A mesh read and integrated once: its outward moments and what the checks said."""
+
+    key: str
+    moments: object
+    mesh: object
+    triangles: int
+    checks: dict
+    warnings: tuple
+    elapsed_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class SceneResult:
+    """Per-part properties (each with its pose), the total (global axes), and the bookkeeping.
+
+    ``parts`` is empty unless the report asks for parts; ``frames`` holds the
+    global pose of every named frame and of every part named in ``report.about``,
+    in output units.
+    """
+
+    scene: Scene
+    parts: tuple
+    total: MassProperties | None
+    records: dict
+    frames: dict
+    stats: dict
+    elapsed_s: float
+
+
+def load_scene(path, *, density=None, unit=None):
+    """Read a scene: ``.toml`` (massprops's format) or a GLB/glTF/3MF scene graph.
+
+    ``density`` is the default for parts that give none; ``unit`` overrides the
+    report's unit.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise MeshReadError("no such scene file", path=path, fix="check the path")
+    if path.lower().endswith(SCENE_EXTENSIONS):
+        from .graph import graph_scene
+        scene = graph_scene(path, density)
+    elif path.lower().endswith(".toml"):
+        from .toml_file import toml_scene
+        scene = toml_scene(path, density)
+    else:
+        raise MeshFormatError("unknown scene format", path=path,
+                              fix="give a .toml scene or a .glb/.gltf/.3mf scene graph")
+    return replace(scene, report=replace(scene.report, unit=unit)) if unit else scene
+
+
+def compute_scene(scene, *, repair=False):
+    """Mass properties of every part and of the assembly, computing only what the report asks.
+
+    Returns
+    -------
+    SceneResult
+    """
+    start = time.perf_counter()
+    request = scene.report
+    order = request.order
+    records = _integrate_meshes(scene, order, repair)
+    wanted = request.quantities | ({"principal"} if request.principal else set())
+    cache, local, which = {}, [], []
+    for part in scene.parts:
+        key = (part.mesh, None if part.stretch is None else part.stretch.tobytes(), part.density, part.mass,
+               part.density_field, None if part.density_map is None else tuple(part.density_map.items()))
+        if key not in cache:
+            cache[key] = len(local)
+            local.append(_local_properties(part, records, request.unit, wanted, repair))
+        which.append(cache[key])
+    index = np.repeat(np.array(which, dtype=np.int64), [part.count for part in scene.parts])
+    length = float(unit_factor(request.unit))
+    arrays = [part.arrays() for part in scene.parts]
+    rotation = np.concatenate([r for r, _ in arrays])
+    translation = np.concatenate([t for _, t in arrays]) * length
+    # Posed per-part objects only when parts are reported: the total works on arrays.
+    parts = tuple(local[i].with_pose(Pose(rotation[k], translation[k])) for k, i in enumerate(index)) \
+        if request.parts else ()
+    total = _combine(local, index, rotation, translation, request.unit) if request.total else None
+    principal = (len(parts) if "parts" in request.principal else 0) + (
+        1 if total is not None and "total" in request.principal else 0)
+    volume_forms = sum(1 for key in cache if records[key[0]].moments is None)
+    stats = {"meshes_read": len(records),
+             "meshes_integrated": sum(1 for r in records.values() if r.moments is not None) + volume_forms,
+             "instances": int(index.size), "properties_formed": len(cache), "moment_order": order,
+             "quantities_computed": sorted(q for q in wanted if QUANTITIES[q] <= order),
+             "principal_decompositions": principal if order >= 2 else 0}
+    return SceneResult(scene, parts, total, records, scene.frame_poses(length), stats,
+                       time.perf_counter() - start)
+
+
+def _integrate_meshes(scene, order, repair):
+    """Read each distinct mesh once and integrate each surface once; a failure names the first part using it.
+
+    A volume mesh is only read here: its integrals depend on the part's cell
+    densities, so :func:`_local_properties` forms them.
+    """
+    from ..io import read
+    from ..mesh.surface import TriangleMesh
+    records = {}
+    for part in scene.parts:
+        if part.mesh in records:
+            continue
+        source = scene.meshes.get(part.mesh, part.mesh)
+        path = source if isinstance(source, str) else part.mesh
+        began = time.perf_counter()
+        with _naming(part, path):
+            mesh = read(source) if isinstance(source, str) else source
+            moments, checks, warnings = None, {}, ()
+            if isinstance(mesh, TriangleMesh):
+                moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
+        triangles = int(mesh.faces.shape[0]) if moments is not None else 0
+        records[part.mesh] = MeshRecord(part.mesh, moments, mesh, triangles, checks, tuple(warnings),
+                                        time.perf_counter() - began)
+    return records
+
+
+@contextmanager
+def _naming(part, path):
+    """Re-raise a mesh's error with the part's name in front and the mesh's file as the path."""
+    try:
+        yield
+    except MassPropsError as exc:
+        raise type(exc)(f"part {part.name!r}: {exc.problem}", path=exc.path or path, fix=exc.fix) from None
+
+
+def _local_properties(part, records, unit, wanted, repair):
+    """A part's properties in its own frame (pose left to the caller).
+
+    A volume mesh is integrated here with the part's densities, and its
+    record gets the checks of that integration.
+    """
+    record = records[part.mesh]
+    with _naming(part, record.key):
+        if record.moments is None or part.density_field is not None or part.density_map is not None:
+            from ..compute import mass_properties
+            result = mass_properties(record.mesh, density=part.density, mass=part.mass, unit=unit,
+                                     repair=repair, only=wanted, density_field=part.density_field,
+                                     density_map=part.density_map)
+            records[part.mesh] = replace(record, triangles=result.triangles, checks=result.checks,
+                                         warnings=result.warnings)
+            return result.properties
+        moments = record.moments
+        if part.stretch is not None:
+            from .graph import stretched_area2, stretched_moments
+            moments = stretched_moments(moments, part.stretch)
+            moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
+                              if "surface_area" in wanted else 0.0)
+        return MassProperties.from_moments(moments, density=part.density, mass=part.mass, unit=unit,
+                                           path=record.key)
+
+
+def combine_parts(parts, poses=None, *, unit=None):
+    """The assembly of parts as one :class:`MassProperties` in global axes (identity pose).
+
+    ``parts`` are :class:`MassProperties`, placed at ``poses`` (a Pose each) or,
+    without ``poses``, at their own ``pose``.  See :func:`_combine`.
+    """
+    poses = [p.pose for p in parts] if poses is None else poses
+    rotation = np.array([pose.rotation for pose in poses])
+    translation = np.array([pose.translation for pose in poses])
+    return _combine(list(parts), np.arange(len(parts)), rotation, translation, unit)
+
+
+def _combine(local, index, rotation, translation, unit):
+    """The total of instances ``k`` of the parts ``local[index[k]]`` at poses ``(rotation[k], translation[k])``.
+
+    Masses and volumes add; the center of mass is the mass-weighted mean of the
+    instances' global centers, accumulated relative to the heaviest one's; the
+    inertia is ``Σ (A_k J_Gk' A_kᵀ + m_k (ρ_kᵀρ_k I − ρ_k ρ_kᵀ))`` with
+    ``ρ_k = r_k − r``.  Error bounds add the parts' bounds, propagated
+    through these formulas, and the rounding of the sums.  Everything is
+    array arithmetic over the instances.
+
+    Parameters
+    ----------
+    local : list of MassProperties
+        Distinct parts, local frames.
+    index : ndarray, shape (n,), int
+    rotation : ndarray, shape (n, 3, 3)
+    translation : ndarray, shape (n, 3)
+        Output units.
+    """
+    def per_instance(get):
+        return np.array([get(p) for p in local], dtype=float)[index]
+
+    def exact_sum(values):
+        return math.fsum(values.tolist())       # lists sum far faster than numpy scalars
+
+    mass, volume = per_instance(lambda p: p.mass), per_instance(lambda p: p.volume)
+    total_mass, total_volume = exact_sum(mass), exact_sum(volume)
+    gamma = (8 + int(index.size).bit_length()) * _U
+    err_mass_i = per_instance(lambda p: p.error.mass)
+    err_mass = exact_sum(err_mass_i) + gamma * total_mass
+    error = dict(volume=exact_sum(per_instance(lambda p: p.error.volume)) + gamma * total_volume, mass=err_mass)
+    com = inertia = None
+    if local[0].center_of_mass is not None:
+        com, inertia, error = _combine_moments(local, index, rotation, translation, mass, err_mass_i,
+                                               total_mass, gamma, error)
+    surface_area = exact_sum(per_instance(lambda p: p.surface_area))
+    return MassProperties(total_volume, total_mass, total_mass / total_volume, surface_area, com, inertia,
+                          ErrorBounds(**error), Pose(), unit)
+
+
+def _combine_moments(local, index, rotation, translation, mass, err_mass_i, total_mass, gamma, error):
+    position = matvec(rotation, np.array([p.center_of_mass for p in local])[index]) + translation
+    base = position[int(np.argmax(mass))]
+    com = base + _pairwise_sum((position - base) * mass[:, None]) / total_mass
+    rho = position - com
+    reach = np.abs(rho).max(axis=1)
+    # Rotations are orthonormal only to rounding; their defect scales what they carry.
+    defect = np.abs(matmul(rotation, rotation.transpose(0, 2, 1)) - np.eye(3)).max(axis=(1, 2))
+    err_position = np.array([p.error.center_of_mass for p in local])[index] * (1.8 + defect) + 4 * _U * (
+        np.abs(position).max(axis=1))
+    err_com = float(mass @ err_position + err_mass_i @ reach) / (total_mass - error["mass"]) * 1.01 + gamma * float(
+        np.abs(position).max() + np.abs(com).max())
+    error["center_of_mass"] = err_com
+    if local[0].inertia_com is None:
+        return com, None, error
+    local_inertia = np.array([p.inertia_com for p in local])
+    terms = rotate_inertia(local_inertia[index], rotation) - mass[:, None, None] * (
+        rho[:, :, None] * rho[:, None, :])
+    terms[:, range(3), range(3)] += (mass * np.einsum("ni,ni->n", rho, rho))[:, None]
+    inertia = _pairwise_sum(terms.reshape(-1, 9)).reshape(3, 3)
+    size = np.abs(local_inertia).max(axis=(1, 2))[index]
+    # Σ m_i P(r_i − c̃) = Σ m_i P(r_i − c) + M P(c − c̃) since Σ m_i (r_i − c) = 0: the error of the
+    # total COM enters only squared; the parts' own position and mass errors enter linearly.
+    err_inertia = (np.array([p.error.inertia_com for p in local])[index] * 3 * (1 + defect) + 6 * defect * size
+                   + 2 * err_mass_i * reach ** 2 + mass * (4 * reach * err_position + 2 * err_position ** 2))
+    error["inertia_com"] = (float(err_inertia.sum()) + 2 * total_mass * err_com ** 2) * 1.01 + (
+        gamma + 16 * _U) * float((3 * size + 2 * mass * reach ** 2).sum())
+    return com, inertia, error
+
+
+def _pairwise_sum(rows):
+    """Column sums of ``rows`` (n, k), summed pairwise: rounding within gamma's (8 + log₂ n) u.
+
+    numpy sums pairwise only along a contiguous axis (a matrix product or a
+    reduction over the outer axis adds in sequence, with error growing as n u).
+    """
+    return np.ascontiguousarray(rows.T).sum(axis=1)

@@ -1,0 +1,116 @@
+"""GLB/glTF/3MF scene graphs as scenes: every node with geometry is a part.
+
+A scene-graph node may also scale or shear its mesh (``x = L x' + t`` with a
+general ``L``).  ``L`` is split into a rotation and a stretch, ``L = A P``; the
+stretch is applied exactly to the raw moments (``|det P|``, ``|det P| P f``,
+``|det P| P C Pᵀ``) before the usual post-processing, never ignored.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from fractions import Fraction
+
+import numpy as np
+
+from ..core.rounding import U as _U
+from ..errors import MeshFormatError, MeshGeometryError
+from ..frames import Pose
+from .model import Part, Scene
+
+__all__ = ["graph_scene", "placement_poses", "stretched_moments", "stretched_area2"]
+
+
+
+def graph_scene(path, density):
+    """Every node with geometry becomes a part with its world transform (instances share meshes)."""
+    from ..io.trimesh_formats import load_trimesh
+    from ..mesh.surface import TriangleMesh
+    loaded = load_trimesh(path)
+    if not hasattr(loaded, "graph"):
+        loaded = __import__("trimesh").Scene(loaded)
+    nodes = sorted(loaded.graph.nodes_geometry)
+    if not nodes:
+        raise MeshFormatError("the scene holds no geometry", path=path, fix="export the parts as meshes")
+    placements = [loaded.graph[node] for node in nodes]
+    matrices = np.array([np.asarray(m, dtype=float) for m, _ in placements])
+    poses = placement_poses(matrices[:, :3, :3], matrices[:, :3, 3], path=path)
+    meshes = {}
+    for name in dict.fromkeys(name for _, name in placements):
+        geometry = loaded.geometry[name]
+        # Welded by exact coordinates, as every reader does: exporters often split vertices per face.
+        triangles = np.asarray(geometry.vertices, dtype=np.float64)[np.asarray(geometry.faces, dtype=np.int64)]
+        meshes[f"{path}#{name}"] = TriangleMesh.from_triangles(triangles)
+    parts = tuple(Part(node, f"{path}#{name}", pose, density=density, stretch=stretch)
+                  for node, (_, name), (pose, stretch) in zip(nodes, placements, poses))
+    return Scene(path, parts, meshes=meshes)
+
+
+def placement_poses(linear, translation, *, path=None):
+    """Split placements ``x = L x' + t`` into a pose and a stretch: ``L = A P``.
+
+    Parameters
+    ----------
+    linear : ndarray, shape (n, 3, 3)
+    translation : ndarray, shape (n, 3)
+
+    Returns
+    -------
+    list of (Pose, ndarray (3, 3) or None)
+        ``A`` a proper rotation (polar decomposition, a reflection moved into
+        ``P``); ``P`` None where ``L`` is already a rotation to rounding.
+    """
+    defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+    det = np.linalg.det(linear)
+    if not np.all(np.isfinite(linear)) or np.any(det == 0):
+        raise MeshGeometryError("a node's transform is singular or not finite", path=path,
+                                fix="give every instance a non-zero scale")
+    rigid = (defect <= 16 * _U) & (det > 0)
+    out = []
+    for k in range(linear.shape[0]):
+        if rigid[k]:
+            out.append((Pose(linear[k], translation[k]), None))
+            continue
+        u, _, vt = np.linalg.svd(linear[k])
+        rotation = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+        out.append((Pose(rotation, translation[k]), rotation.T @ linear[k]))
+    return out
+
+
+def stretched_moments(moments, stretch):
+    """Raw moments of the mesh mapped by ``P`` (``x'' = P x'``), exactly up to one rounding each.
+
+    With ``y`` the scaled coordinates of :class:`massprops.core.integrate.Moments`,
+    ``Σdet ↦ |det P| Σdet``, ``first ↦ |det P| P first``, ``second ↦
+    |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
+    rationals).  The area is not a function of the moments; it is set by the
+    caller from the faces (see :func:`stretched_area2`).
+    """
+    p = [[Fraction(float(x)) for x in row] for row in stretch]
+    det = abs(p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
+              + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]))
+    norm = float(max(sum(abs(x) for x in row) for row in p))
+
+    def mapped(vector):
+        return [sum(row[k] * vector[k] for k in range(3)) for row in p]
+
+    det_sum = float(Fraction(moments.det_sum) * det)
+    first = np.array([float(x * det) for x in mapped([Fraction(v) for v in moments.first])])
+    second_rows = [mapped([Fraction(float(v)) for v in column]) for column in np.asarray(moments.second).T]
+    second = np.array([[float(det * sum(p[i][k] * second_rows[k][j] for k in range(3))) for j in range(3)]
+                       for i in range(3)])
+    d = float(det) * (1 + 4 * _U)
+    return replace(moments, reference=tuple(mapped([Fraction(x) for x in moments.reference])),
+                   det_sum=det_sum, det_error=moments.det_error * d + _U * abs(det_sum),
+                   first=first, first_error=moments.first_error * d * norm + _U * float(np.abs(first).max()),
+                   second=second,
+                   second_error=moments.second_error * d * norm ** 2 + _U * float(np.abs(second).max()))
+
+
+def stretched_area2(mesh, stretch, scale_exp):
+    """``Σ |cof(P) n_f|`` in the moments' scaled units: twice the stretched surface's area."""
+    triangles = mesh.vertices[mesh.faces]
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    cofactor = np.linalg.det(stretch) * np.linalg.inv(stretch).T
+    return math.ldexp(float(np.linalg.norm(normal @ cofactor.T, axis=1).sum()), -2 * scale_exp)
