@@ -151,6 +151,16 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
     (Moments, TriangleMesh, dict, list of str)
         Outward moments, the mesh integrated, the checks, and the warnings.
     """
+    if not repair:
+        return _checked_moments(mesh, path=path, order=order, repair=False, self_intersection=self_intersection)
+    from .mesh.repair import after_repair
+    try:
+        return _checked_moments(mesh, path=path, order=order, repair=True, self_intersection=self_intersection)
+    except MassPropsError as exc:
+        raise after_repair(exc) from None
+
+
+def _checked_moments(mesh, *, path, order, repair, self_intersection):
     from .mesh.solid import without_repeated_faces, without_unused_vertices
 
     mesh = without_unused_vertices(mesh)
@@ -165,6 +175,7 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
     # moments are used only if the checks pass and the solid is these faces.
     threaded = mesh.faces.shape[0] > PARALLEL_ABOVE
     integrated = start(_integrate.integrate, mesh.vertices, mesh.faces, order=order, threaded=threaded)
+    integrated_mesh = mesh
     try:
         mesh, checks, labels, welded = _closed(mesh, path)
         solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
@@ -177,15 +188,10 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
                 pass
         raise
     moments = integrated()
-    if solid.mesh.faces is not mesh.faces or solid.mesh.vertices is not mesh.vertices:
+    if solid.mesh is not integrated_mesh:
         moments = _integrate.integrate(solid.mesh.vertices, solid.mesh.faces, order=order)
     warnings += solid.warnings
-    orientation = "outward"
-    if solid.flipped or moments.det_sum < 0:
-        if not solid.flipped:
-            moments = moments.negated()
-        orientation = "inward, flipped"
-        warnings.append("faces are wound inward (normals point into the solid); flipped them")
+    moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)
     check_dict = checks.as_dict()
     check_dict.update(repeated)
@@ -198,6 +204,14 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
                         f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
                         "include the move")
     return moments, solid.mesh, check_dict, warnings
+
+
+def _outward(moments, solid, warnings):
+    """Moments of the outward surface, and the orientation found (a warning when it was flipped)."""
+    if not (solid.flipped or moments.det_sum < 0):
+        return moments, "outward"
+    warnings.append("faces are wound inward (normals point into the solid); flipped them")
+    return (moments if solid.flipped else moments.negated()), "inward, flipped"
 
 
 def _closed(mesh, path):

@@ -48,12 +48,14 @@ class Settings:
     density_field: str | None = None
     density_map: dict | None = None
     shell: float | None = None
+    self_intersection: bool | None = None
 
     def key(self):
         """A JSON-able description; a resumed report is reused only if this matches."""
         pose = self.pose or Pose()
         return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
                 "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
+                "self_intersection": self.self_intersection,
                 "rotation": [repr(float(x)) for x in pose.rotation.ravel()],
                 "translation": [repr(float(x)) for x in pose.translation]}
 
@@ -96,12 +98,17 @@ def default_jobs():
 
 # ---------------------------------------------------------------- inputs
 
-def _mesh_files_in(directory, recursive):
+def _mesh_files_in(directory, recursive, skipped=None):
     from ..io import EXTENSIONS
     found = []
     for root, dirs, names in os.walk(directory):
         dirs.sort()
-        found += [os.path.join(root, n) for n in sorted(names) if os.path.splitext(n)[1].lower() in EXTENSIONS]
+        for name in sorted(names):
+            extension = os.path.splitext(name)[1].lower()
+            if extension in EXTENSIONS:
+                found.append(os.path.join(root, name))
+            elif skipped is not None:
+                skipped[extension or "(none)"] = skipped.get(extension or "(none)", 0) + 1
         if not recursive:
             break
     return found
@@ -120,7 +127,7 @@ def _read_list(list_path):
     return [os.path.join(folder, s) for s in (line.strip() for line in lines) if s and not s.startswith("#")]
 
 
-def expand_inputs(paths, *, recursive=False):
+def expand_inputs(paths, *, recursive=False, skipped=None):
     """The mesh files that ``paths`` name, in order, each once.
 
     Parameters
@@ -131,6 +138,9 @@ def expand_inputs(paths, *, recursive=False):
         ``recursive``); ``@LIST`` for a text file of such paths, one a line,
         relative to the list's folder.  A name that matches nothing, or a
         folder with no mesh files, is kept, so the report says what is wrong.
+    skipped : dict, optional
+        Filled with ``{extension: count}`` of the files in the directories
+        walked that are not in a format massprops reads.
 
     Raises
     ------
@@ -151,7 +161,7 @@ def expand_inputs(paths, *, recursive=False):
                 expand(listed, depth + 1)
         elif os.path.isdir(path):
             # a named folder with no mesh files still gets its row, so the report shows the mistake
-            for found in _mesh_files_in(path, recursive) or [path]:
+            for found in _mesh_files_in(path, recursive, skipped) or [path]:
                 add(found)
         elif _GLOB_CHARS.search(path) and not os.path.exists(path):
             matches = sorted(glob.glob(path, recursive=recursive))
@@ -192,7 +202,8 @@ def run_one(path, settings=Settings(), output_format="csv"):
                                 fix="pass --recursive to search its sub-directories, or name the files")
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
-                                 density_map=settings.density_map, shell=settings.shell)
+                                 density_map=settings.density_map, shell=settings.shell,
+                                 self_intersection=settings.self_intersection)
         obj = report.result_dict(result)
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
     except Exception as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on

@@ -45,6 +45,14 @@ def _report_failures(summary):
         click.echo(f"... and {hidden} more failed files (status=error in the report)", err=True)
 
 
+def _skipped_text(skipped):
+    """``; skipped 1095 .urdf, 12 .mtl (not mesh formats massprops reads)``, or nothing."""
+    if not skipped:
+        return ""
+    counts = sorted(skipped.items(), key=lambda item: (-item[1], item[0]))
+    return "; skipped " + ", ".join(f"{n} {ext}" for ext, n in counts) + " (not mesh formats massprops reads)"
+
+
 def _summary_line(summary):
     line = f"{summary.ok} ok, {summary.failed} failed"
     if summary.unchanged:
@@ -70,8 +78,9 @@ def _summary_line(summary):
 @options.pose_options
 @options.cell_options
 @options.repair_option
+@options.self_intersection_option
 def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, density, total_mass, unit,
-          rotate, translate, density_field, density_map, shell, repair):
+          rotate, translate, density_field, density_map, shell, repair, self_intersection):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
@@ -89,13 +98,15 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
         output = None
     if resume and output is None:
         raise click.UsageError("--resume needs the report file: give it with -o")
+    skipped = {}
     try:
-        files = batch_lib.expand_inputs(paths, recursive=recursive)
+        files = batch_lib.expand_inputs(paths, recursive=recursive, skipped=skipped)
     except MassPropsError as exc:
         raise click.BadParameter(str(exc), param_hint="PATH") from None
     pose = options.guarded(options.pose_from_options, rotate, translate)
     settings = pose and batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
-                                           density_field=density_field, density_map=density_map, shell=shell)
+                                           density_field=density_field, density_map=density_map, shell=shell,
+                                           self_intersection=self_intersection)
     if settings is None or not options.guarded(batch_lib.check_settings, settings):
         raise SystemExit(1)
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet)
@@ -105,7 +116,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
         for note in summary.notes:
             click.echo(f"note: {note}", err=True)
         _report_failures(summary)
-        click.echo(_summary_line(summary), err=True)
+        click.echo(_summary_line(summary) + _skipped_text(skipped), err=True)
     options.exit_with(summary.failed)
 
 

@@ -30,9 +30,10 @@ def _parse_point(text):
 @click.option("--check-trimesh", is_flag=True, help="Also compute with trimesh and report the relative differences.")
 @options.cell_options
 @options.repair_option
+@options.self_intersection_option
 @options.format_option("text", "json", "csv")
 def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
-          density_map, shell, repair, output_format):
+          density_map, shell, repair, self_intersection, output_format):
     """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB; volume meshes via meshio).
 
     Volume, mass, center of mass, inertia about the center of mass, principal
@@ -53,7 +54,8 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
 
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
-                                 only=wanted, density_field=density_field, density_map=density_map, shell=shell)
+                                 only=wanted, density_field=density_field, density_map=density_map, shell=shell,
+                                 self_intersection=self_intersection)
         extra = None
         if check_trimesh:
             from ..validation.crosscheck import trimesh_comparison

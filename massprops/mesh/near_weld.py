@@ -70,29 +70,72 @@ def weld_noise(mesh, *, path=None):
     vertices, faces = mesh.vertices, mesh.faces
     boundary, edges = _boundary_vertices(faces, vertices.shape[0])
     points = vertices[boundary]
-    tolerance = _tolerance(vertices, mesh.source_dtype)
-    pairs = _close_pairs(points, tolerance)
-    if pairs.size:
-        target = _clusters(boundary.size, pairs)
-        welded_faces = _relabel(faces, boundary, target)
-        _, _, balance = match_edges(welded_faces, vertices.shape[0])
-        if not np.any(balance):
-            movers = np.flatnonzero(target != np.arange(boundary.size))
-            survivors = np.unique(target[movers])
-            # Every face that used a merged vertex now uses its survivor: the survivors' neighbourhoods
-            # moved by at most the distance between the merged points.
-            distance = np.max(np.abs(points[movers] - points[target[movers]]), axis=1) * np.sqrt(3.0)
-            moved = np.zeros(boundary.size)
-            np.maximum.at(moved, target[movers], distance)
-            return Welded(mesh.with_faces(welded_faces), boundary[survivors], moved[survivors] * (1 + 1e-12),
-                          int(movers.size))
-    problem, widest = _gap_message(edges, points)
-    fix = "close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS"
+    welded = _welded_within(mesh, boundary, points, _tolerance(vertices, mesh.source_dtype))
+    if welded is not None:
+        return welded
     extent = float(np.max(np.ptp(vertices[np.unique(faces)], axis=0)))
-    if 0.0 < widest <= 1e-6 * extent:
-        fix = (f"the gaps are tiny: weld vertices closer than {widest:.2g} (e.g. trimesh's merge_vertices, "
-               "MeshLab's 'Merge Close Vertices'), or pass --repair")
-    raise OpenMeshError(problem, path=path, fix=fix)
+    # Would welding a little more close it?  Then say how little; else describe the openings.
+    gaps = _nearest_unjoined(points, np.searchsorted(boundary, edges))
+    small = gaps[gaps <= _SMALL_GAP * extent]
+    if small.size and _welded_within(mesh, boundary, points, float(small.max())) is not None:
+        widest = float(small.max())
+        raise OpenMeshError(f"mesh is open: {edges.shape[0]} boundary edges along gaps at most {widest:.2g} wide",
+                            path=path, fix=f"weld vertices closer than {widest:.2g} (trimesh's merge_vertices, "
+                                           "MeshLab's 'Merge Close Vertices'), or pass --repair")
+    raise OpenMeshError(_openings(edges, points), path=path,
+                        fix="close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS")
+
+
+# Gaps up to this fraction of the part's size are reported as such (a tolerance weld would close them).
+_SMALL_GAP = 1e-4
+
+
+def _welded_within(mesh, boundary, points, tolerance):
+    """The mesh with boundary vertices within ``tolerance`` (every coordinate) welded, if that closes it."""
+    pairs = _close_pairs(points, tolerance)
+    if not pairs.size:
+        return None
+    target = _clusters(boundary.size, pairs)
+    welded_faces = _relabel(mesh.faces, boundary, target)
+    if np.any(match_edges(welded_faces, mesh.vertices.shape[0])[2]):
+        return None
+    movers = np.flatnonzero(target != np.arange(boundary.size))
+    survivors = np.unique(target[movers])
+    # Every face that used a merged vertex now uses its survivor: the survivors' neighbourhoods
+    # moved by at most the distance between the merged points.
+    distance = np.max(np.abs(points[movers] - points[target[movers]]), axis=1) * np.sqrt(3.0)
+    moved = np.zeros(boundary.size)
+    np.maximum.at(moved, target[movers], distance)
+    return Welded(mesh.with_faces(welded_faces), boundary[survivors], moved[survivors] * (1 + 1e-12),
+                  int(movers.size))
+
+
+def _nearest_unjoined(points, local_edges):
+    """For each boundary point, the distance to the nearest other one no boundary edge joins it to."""
+    joined = {(a, b) for a, b in local_edges.tolist()} | {(b, a) for a, b in local_edges.tolist()}
+    n = points.shape[0]
+    nearest = np.full(n, np.inf)
+    if n > 4096:
+        from scipy.spatial import cKDTree          # only for large open meshes, on the way to a refusal
+        distance, index = cKDTree(points).query(points, k=min(n, 8))
+        for i in range(n):
+            for d, j in zip(distance[i].tolist()[1:], index[i].tolist()[1:]):
+                if (i, j) not in joined:
+                    nearest[i] = d
+                    break
+        return nearest
+    for start in range(0, n, 256):
+        block = np.linalg.norm(points[start:start + 256, None, :] - points[None, :, :], axis=2)
+        rows = np.arange(start, min(n, start + 256))
+        block[rows - start, rows] = np.inf
+        for a, b in local_edges.tolist():
+            if start <= a < start + 256:
+                block[a - start, b] = np.inf
+            if start <= b < start + 256:
+                block[b - start, a] = np.inf
+        nearest[start:start + 256] = block.min(axis=1)
+    del joined
+    return nearest
 
 
 def _close_pairs(points, tolerance):
@@ -138,24 +181,6 @@ def _relabel(faces, boundary, target):
     return relabel[faces]
 
 
-def _widest_gap(points, labels):
-    """Largest distance from a point to the nearest point of another label (blocks of rows; a k-d tree when many)."""
-    if points.shape[0] > 4096:
-        from scipy.spatial import cKDTree          # only for large open meshes, on the way to a refusal
-        widest = 0.0
-        for label in np.unique(labels):
-            distance, _ = cKDTree(points[labels != label]).query(points[labels == label])
-            widest = max(widest, float(distance.max()))
-        return widest
-    widest = 0.0
-    for start in range(0, points.shape[0], 256):
-        block = points[start:start + 256]
-        distance = np.linalg.norm(block[:, None, :] - points[None, :, :], axis=2)
-        distance[labels[start:start + 256, None] == labels[None, :]] = np.inf
-        widest = max(widest, float(distance.min(axis=1).max()))
-    return widest
-
-
 def _loops(edges):
     """Label of the boundary loop (connected set of boundary edges) of each boundary vertex, and the count."""
     vertices = np.unique(edges)
@@ -173,18 +198,10 @@ def _loops(edges):
     return labels, int(labels.max()) + 1
 
 
-def _gap_message(edges, points):
-    """The refusal's text and the widest gap (``points``: the boundary vertices, in ``np.unique(edges)`` order).
-
-    With one opening, the gap is its extent; with several, the largest
-    distance from a boundary vertex to the nearest boundary vertex of another
-    opening (for a seam of CAD noise, two openings that nearly coincide, that
-    is the noise).
-    """
-    count = edges.shape[0]
+def _openings(edges, points):
+    """``mesh is open: N boundary edges around K openings``, with the widest one's extent."""
     labels, loops = _loops(edges)
+    widest = max(float(np.max(np.ptp(points[labels == k], axis=0))) for k in range(loops))
     if loops == 1:
-        across = float(np.max(np.ptp(points, axis=0)))
-        return f"mesh is open: {count} boundary edges around one opening {across:.3g} across", across
-    widest = _widest_gap(points, labels)
-    return f"mesh is open: {count} boundary edges around {loops} openings up to {widest:.3g} apart", widest
+        return f"mesh is open: {edges.shape[0]} boundary edges around one opening {widest:.3g} across"
+    return f"mesh is open: {edges.shape[0]} boundary edges around {loops} openings, the widest {widest:.3g} across"

@@ -296,13 +296,13 @@ def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
 
 
 def refuse_self_intersection(examples, path):
-    """Raise for a shell whose faces cross (one line naming them)."""
+    """Raise for a shell whose faces cross (one line naming two of them)."""
     a, b = (int(v) for v in examples[0])
-    more = f" and {len(examples) - 1} more pairs" if len(examples) > 1 else ""
-    raise MeshGeometryError(f"the surface intersects itself (faces {a} and {b} cross{more}): it bounds no "
-                            "well-defined solid", path=path,
-                            fix="repair the mesh in a modeller (remove the crossing, or unite the bodies it "
-                                "joins), then export it again")
+    more = ", and others" if len(examples) > 1 else ""
+    raise MeshGeometryError(f"the surface intersects itself (faces {a} and {b} cross{more}): its signed volume is "
+                            "not the volume it encloses, and manifold3d cannot unite a shell with itself",
+                            path=path,
+                            fix="remove the crossing in a modeller (or unite the bodies it joins) and export again")
 
 
 def refuse_inside_out(count, n_shells, path):

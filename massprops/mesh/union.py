@@ -6,18 +6,24 @@ trusted as it comes:
 
 1. Every output triangle carries the index of the original triangle it came
    from (manifold's face IDs, which we set to the original face numbers).
-2. Every new vertex is recomputed exactly, in rationals, from the original
+2. Every new vertex is placed exactly, in rationals, from the original
    coordinates: it lies in the planes of all original triangles its output
-   triangles came from (three independent planes, or two planes and an
-   original edge, or two original edges in one plane), and is rounded once.
+   triangles came from.  Where three of those planes are independent it is
+   a corner of the union, their common point, rounded once.  Where they span
+   only a line (a point along a crease) or a plane (a point inside a flat
+   fan), its position along that line or in that plane changes no integral:
+   the exact surface has it at the nearest point there, and manifold's
+   vertex is kept.
 3. The union surface with the exact vertices is checked: closed and
    consistently wound (every edge once each way), every output triangle in
-   the plane of its original triangle, inside it, and wound the same way.
-   A failed check refuses the file with a one-line reason.
-4. Rounding the new vertices moves the surface: moving vertex ``v`` by
-   ``δ_v`` sweeps at most ``δ_v · ΣA/3`` of volume (ΣA the areas of the
-   triangles around it, enlarged for the other moved vertices).  The sum is
-   the ``swept_volume`` the caller adds to the error bounds.
+   the plane of its original triangle and wound the same way, and its
+   corners (original vertices, union corners) inside that triangle.  A failed
+   check refuses the file with a one-line reason.
+4. The vertices integrated are off their exact places by ``δ_v`` (rounding,
+   or manifold's distance from the crease or plane): that sweeps at most
+   ``δ_v · ΣA/3`` of volume (ΣA the areas of the triangles around it,
+   enlarged for the other moved vertices).  The sum is the ``swept_volume``
+   the caller adds to the error bounds.
 """
 
 from __future__ import annotations
@@ -111,24 +117,26 @@ def _checked_union(vertices, faces, unit, out_vertices, out_faces, origin, offse
     mapped = np.array([index.get(tuple(v), -1) for v in out_vertices.tolist()], dtype=np.int64)
     new = np.flatnonzero(mapped < 0)
     around = _incident(out_faces, out_vertices.shape[0])
-    exact = {}
+    exact, corners = {}, set()
     rounded = np.zeros((new.size, 3))
     moved = np.zeros(new.size)
     size = float(np.max(np.ptp(vertices[np.unique(faces[origin])], axis=0)))
     for k, v in enumerate(new.tolist()):
-        point = _exact_vertex(vertices, faces, np.unique(origin[around[v]]), out_vertices[v])
+        point, corner = _exact_vertex(vertices, faces, np.unique(origin[around[v]]), out_vertices[v])
         if point is None:
             _refuse(f"a new vertex near {out_vertices[v].tolist()} is on no intersection of the original "
                     "triangles", unit, path)
-        rounded[k] = [float(c) for c in point]
+        rounded[k] = [float(c) for c in point] if corner else out_vertices[v]
         if float(np.max(np.abs(rounded[k] - out_vertices[v]))) > 1e-6 * size:
             _refuse(f"a new vertex is {float(np.max(np.abs(rounded[k] - out_vertices[v]))):.3g} from the "
                     "exact intersection", unit, path)
         exact[v] = point
+        if corner:
+            corners.add(v)
         moved[k] = _distance_up(point, rounded[k])
     mapped[new] = offset + np.arange(new.size)
     united = mapped[out_faces]
-    _verify(vertices, faces, out_faces, united, origin, exact, unit, path)
+    _verify(vertices, faces, out_faces, united, origin, exact, corners, unit, path)
     swept = swept_volume(np.vstack([vertices, rounded]), united, mapped[new], moved)
     return United(united, rounded, swept, volume)
 
@@ -164,7 +172,16 @@ def _plane(vertices, face):
 
 
 def _exact_vertex(vertices, faces, origins, approximate):
-    """The exact point where the original triangles ``origins`` meet, nearest to ``approximate``; or None."""
+    """Where a new vertex belongs, exactly: ``(point, is_corner)``, or ``(None, False)``.
+
+    The planes of the original triangles ``origins`` around it meet in a
+    point (three independent planes): that point, a corner of the union,
+    exactly.  Two independent planes meet in a line along which the vertex is
+    a collinear point of a crease, and one plane holds a flat fan: moving the
+    vertex along that line or in that plane changes no integral, so the exact
+    surface has it at the nearest point of the line or plane, ``approximate``
+    projected (only its distance from there counts).
+    """
     planes = [_plane(vertices, faces[f]) for f in origins.tolist()]
     independent = []
     for normal, offset in planes:
@@ -173,33 +190,31 @@ def _exact_vertex(vertices, faces, origins, approximate):
             independent = trial
         if len(independent) == 3:
             break
-    candidates = []
     if len(independent) == 3:
-        candidates.append(_three_planes(*independent))
+        point = _three_planes(*independent)
+        corner = True
+    elif independent:
+        point, corner = _projection(_q(approximate), independent), False
     else:
-        edges = {tuple(sorted((int(faces[f][i]), int(faces[f][(i + 1) % 3])))) for f in origins.tolist()
-                 for i in range(3)}
-        lines = [(_q(vertices[p]), _sub(_q(vertices[q]), _q(vertices[p]))) for p, q in sorted(edges)]
-        if len(independent) == 2:
-            for start, direction in lines:
-                for normal, offset in planes:
-                    across = _dot(normal, direction)
-                    if across != 0:
-                        t = (offset - _dot(normal, start)) / across
-                        candidates.append(tuple(start[i] + t * direction[i] for i in range(3)))
-        else:
-            normal = independent[0][0]
-            for i, (p, e) in enumerate(lines):
-                for r, f in lines[i + 1:]:
-                    across = _dot(_cross(e, f), normal)
-                    if across != 0:
-                        t = _dot(_cross(_sub(r, p), f), normal) / across
-                        candidates.append(tuple(p[k] + t * e[k] for k in range(3)))
-    valid = [x for x in candidates if all(_dot(n, x) == d for n, d in planes)]
-    if not valid:
-        return None
-    target = [float(c) for c in approximate]
-    return min(valid, key=lambda x: sum((float(x[k]) - target[k]) ** 2 for k in range(3)))
+        return None, False
+    if not all(_dot(n, point) == d for n, d in planes):
+        return None, False
+    return point, corner
+
+
+def _projection(x, planes):
+    """The point nearest to ``x`` on the intersection of one or two independent planes (rationals)."""
+    n1, d1 = planes[0]
+    if len(planes) == 1:
+        t = (d1 - _dot(n1, x)) / _dot(n1, n1)
+        return tuple(x[k] + t * n1[k] for k in range(3))
+    n2, d2 = planes[1]
+    # x + a n1 + b n2 on both planes: a 2×2 system in a, b.
+    g11, g12, g22 = _dot(n1, n1), _dot(n1, n2), _dot(n2, n2)
+    r1, r2 = d1 - _dot(n1, x), d2 - _dot(n2, x)
+    det = g11 * g22 - g12 * g12
+    a, b = (r1 * g22 - r2 * g12) / det, (r2 * g11 - r1 * g12) / det
+    return tuple(x[k] + a * n1[k] + b * n2[k] for k in range(3))
 
 
 def _rank(normals):
@@ -223,8 +238,9 @@ def _distance_up(point, rounded):
     return math.sqrt(float(squared)) * (1 + 2.0 ** -48) + 2.0 ** -1070
 
 
-def _verify(vertices, faces, out_faces, united, origin, exact, unit, path):
-    """Closed, consistently wound, each output triangle inside its original one and wound alike."""
+def _verify(vertices, faces, out_faces, united, origin, exact, corners, unit, path):
+    """Closed, consistently wound, each output triangle in its original one's plane, wound alike, and its
+    corners (original vertices and union corners) inside that triangle."""
     n = vertices.shape[0] + len(exact) + 1
     uses, balance = edge_balance(united, int(united.max()) + 1 if united.size else n)
     if np.any(balance) or np.any(uses % 2):
@@ -245,9 +261,11 @@ def _verify(vertices, faces, out_faces, united, origin, exact, unit, path):
         a, b, c = (_q(vertices[i]) for i in faces[origin[t]])
         normal = _cross(_sub(b, a), _sub(c, a))
         points = [corner(int(o), int(u)) for o, u in zip(out_faces[t], united[t])]
-        for x in points:
+        for o, x in zip(out_faces[t].tolist(), points):
             if _dot(normal, _sub(x, a)) != 0:
                 _refuse(f"a triangle from original face {int(origin[t])} leaves its plane", unit, path)
+            if o in exact and o not in corners:
+                continue                     # a crease or flat-fan point: free along its line or plane
             for p, q in ((a, b), (b, c), (c, a)):
                 if _dot(_cross(_sub(q, p), _sub(x, p)), normal) < 0:
                     _refuse(f"a triangle from original face {int(origin[t])} leaves that face", unit, path)
