@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import os
 import time
+
+import numpy as np
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
@@ -161,7 +163,7 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
 
 
 def _checked_moments(mesh, *, path, order, repair, self_intersection):
-    from .mesh.solid import without_repeated_faces, without_unused_vertices
+    from .mesh.solid import without_unused_vertices
 
     mesh = without_unused_vertices(mesh)
     warnings = list(mesh.notes)
@@ -169,15 +171,13 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
         from .mesh.repair import repair_mesh
         mesh, changes = repair_mesh(mesh, path=path)
         warnings += changes
-    mesh, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
-    warnings += repeat_warnings
     # A large mesh is integrated in a second thread while it is checked; the
     # moments are used only if the checks pass and the solid is these faces.
     threaded = mesh.faces.shape[0] > PARALLEL_ABOVE
     integrated = start(_integrate.integrate, mesh.vertices, mesh.faces, order=order, threaded=threaded)
     integrated_mesh = mesh
     try:
-        mesh, checks, labels, welded = _closed(mesh, path)
+        mesh, checks, labels, welded, repeated, copies = _closed(mesh, path, warnings)
         solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
                        self_intersection=self_intersection, copies=copies)
     except MassPropsError:
@@ -193,9 +193,13 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
     warnings += solid.warnings
     moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)
+    overlap, overlap_warning = _overlap(solid, moments)
+    if overlap_warning:
+        warnings.append(overlap_warning)
     check_dict = checks.as_dict()
     check_dict.update(repeated)
     check_dict.update(solid.checks)
+    check_dict["overlap"] = overlap
     check_dict["orientation"] = orientation
     check_dict["refined_faces"] = moments.refined_faces
     if welded is not None:
@@ -214,18 +218,38 @@ def _outward(moments, solid, warnings):
     return (moments if solid.flipped else moments.negated()), "inward, flipped"
 
 
-def _closed(mesh, path):
-    """Check the mesh; a surface open only along seams of noise is welded closed (None when not)."""
+def _closed(mesh, path, warnings):
+    """Check the mesh and resolve repeated faces; a surface open only along seams of noise is welded closed.
+
+    Returns the mesh, its checks and shell labels, the :class:`Welded` (None
+    when not welded), the repeated-face checks and the copies dropped.
+    """
     from .errors import OpenMeshError
+    from .mesh.solid import without_repeated_faces
     from .mesh.surface import check_shells
+    welded = None
     try:
-        checks, labels = check_shells(mesh, path=path)
-        return mesh, checks, labels, None
-    except OpenMeshError:
-        from .mesh.near_weld import weld_noise
-        welded = weld_noise(mesh, path=path)
-    checks, labels = check_shells(welded.mesh, path=path)
-    return welded.mesh, checks, labels, welded
+        checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
+    except OpenMeshError as refusal:
+        from .mesh.near_weld import weld_noise          # open, unless only noise separates its seams
+        welded = weld_noise(mesh, path=path, refusal=refusal)
+        mesh = welded.mesh
+        checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
+    sizes = np.bincount(labels) if checks.shells > 1 else np.array([mesh.faces.shape[0]])
+    if two_faces_an_edge and not np.any(sizes == 2):
+        return mesh, checks, labels, welded, {"duplicate_shells": 0, "duplicate_faces": 0}, None
+    # Faces may repeat (a body written twice, a face and its reverse): resolve them, then check again.
+    reduced, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
+    warnings += repeat_warnings
+    if reduced is not mesh:
+        mesh = reduced
+        checks, labels, _ = check_shells(mesh, path=path)
+    return mesh, checks, labels, welded, repeated, copies
+
+
+def _overlap(solid, moments):
+    from .mesh.solid import overlap_warning
+    return overlap_warning(solid, moments)
 
 
 def _solid(mesh, labels, n_shells, **options):

@@ -430,6 +430,17 @@ static inline uint64_t spread21(uint64_t x)
     return x;
 }
 
+static inline uint64_t compact21(uint64_t x)
+{
+    x &= 0x1249249249249249ULL;
+    x = (x | x >> 2) & 0x10C30C30C30C30C3ULL;
+    x = (x | x >> 4) & 0x100F00F00F00F00FULL;
+    x = (x | x >> 8) & 0x1F0000FF0000FFULL;
+    x = (x | x >> 16) & 0x1F00000000FFFFULL;
+    x = (x | x >> 32) & 0x1FFFFF;
+    return x;
+}
+
 static inline uint64_t morton(uint64_t i, uint64_t j, uint64_t k)
 {
     return spread21(i) | spread21(j) << 1 | spread21(k) << 2;
@@ -539,33 +550,10 @@ static int build_grid(Grid *g, const double *V, const int64_t *F, const int64_t 
     double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2]));
     if (!(whole > 0.0))
         whole = 1.0;
-    /* Faces in Morton order of their box centres: neighbours in space are neighbours in memory. */
-    uint64_t *mk = malloc(sizeof(uint64_t) * n), *tk = malloc(sizeof(uint64_t) * n);
-    uint32_t *mv = malloc(sizeof(uint32_t) * n), *tv = malloc(sizeof(uint32_t) * n);
-    int64_t *taken = malloc(sizeof(int64_t) * n);
-    if (!mk || !tk || !mv || !tv || !taken) {
-        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
-        return -1;
-    }
-    double quantum = (double)((1 << 21) - 1) / whole;
-    Py_ssize_t i = 0;
-    for (Py_ssize_t t = 0; t < m; t++) {
-        if (axis[t] < 0)
-            continue;
-        uint64_t q[3];
-        for (int k = 0; k < 3; k++) {
-            double x = (0.5 * (box[6 * t + k] + box[6 * t + 3 + k]) - glo[k]) * quantum;
-            q[k] = x <= 0.0 ? 0 : (x >= (1 << 21) - 1 ? (1 << 21) - 1 : (uint64_t)x);
-        }
-        taken[i] = t;
-        mk[i] = morton(q[0], q[1], q[2]);
-        mv[i] = (uint32_t)i;
-        i++;
-    }
-    if (radix_sort(mk, mv, tk, tv, n) < 0) {
-        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
-        return -1;
-    }
+    /* The faces taken, in input order: exporters write neighbouring faces near each other, so the
+     * cells' runs of faces stay near each other in memory too. */
+    uint64_t *tk = malloc(sizeof(uint64_t) * n);
+    uint32_t *tv = malloc(sizeof(uint32_t) * n);
     g->n = n;
     g->id = malloc(sizeof(int64_t) * n);
     g->corner = malloc(sizeof(int64_t) * 3 * n);
@@ -574,23 +562,25 @@ static int build_grid(Grid *g, const double *V, const int64_t *F, const int64_t 
     g->hi = malloc(sizeof(double) * 3 * n);
     g->axis = malloc(n);
     g->level = malloc(n);
-    if (!g->id || !g->corner || !g->shell || !g->lo || !g->hi || !g->axis || !g->level) {
-        free(axis), free(box), free(mk), free(tk), free(mv), free(tv), free(taken);
+    if (!tk || !tv || !g->id || !g->corner || !g->shell || !g->lo || !g->hi || !g->axis || !g->level) {
+        free(axis), free(box), free(tk), free(tv);
         return -1;
     }
-    for (Py_ssize_t s = 0; s < n; s++) {
-        int64_t t = taken[mv[s]];
+    Py_ssize_t s = 0;
+    for (Py_ssize_t t = 0; t < m; t++) {
+        if (axis[t] < 0)
+            continue;
         g->id[s] = t;
         g->shell[s] = shell[t];
         g->axis[s] = axis[t];
-        for (int k = 0; k < 3; k++)
-            g->corner[3 * s + k] = F[3 * t + k];
         for (int k = 0; k < 3; k++) {
+            g->corner[3 * s + k] = F[3 * t + k];
             g->lo[3 * s + k] = box[6 * t + k];
             g->hi[3 * s + k] = box[6 * t + 3 + k];
         }
+        s++;
     }
-    free(axis), free(box), free(taken), free(mk), free(mv);
+    free(axis), free(box);
     /* The finest cell: the largest sampled face extent when it is at most twice the 90th
      * percentile (one level: no lookups across levels), else that percentile (larger faces go up a
      * level per doubling); never below 2**-17 of the whole. */
@@ -848,13 +838,21 @@ static inline int boxes_meet(const Grid *g, Py_ssize_t t, Py_ssize_t u)
     return !(lt[0] > hu[0] || lu[0] > ht[0] || lt[1] > hu[1] || lu[1] > ht[1] || lt[2] > hu[2] || lu[2] > ht[2]);
 }
 
-/* A pair is met in the cell (at `level`) holding the larger of its two lower corners: exactly once. */
-static inline int canonical_cell(const Grid *g, Py_ssize_t t, Py_ssize_t u, int level, uint64_t key)
+/* A pair is met in the cell (at `level`, coordinates `cell`) holding the larger of its two lower
+ * corners: exactly once. */
+static inline int canonical_cell(const Grid *g, Py_ssize_t t, Py_ssize_t u, int level, const int64_t *cell)
 {
-    int64_t c[3];
     for (int k = 0; k < 3; k++)
-        c[k] = cell_of(g, level, k, dmax(g->lo[3 * t + k], g->lo[3 * u + k]));
-    return cell_key(level, c[0], c[1], c[2]) == key;
+        if (cell_of(g, level, k, dmax(g->lo[3 * t + k], g->lo[3 * u + k])) != cell[k])
+            return 0;
+    return 1;
+}
+
+static inline void key_cell(uint64_t key, int64_t *cell)
+{
+    cell[0] = (int64_t)compact21(key);
+    cell[1] = (int64_t)compact21(key >> 1);
+    cell[2] = (int64_t)compact21(key >> 2);
 }
 
 static void *search(void *arg)
@@ -868,11 +866,13 @@ static void *search(void *arg)
         while (end < g->n_entries && g->key[end] == g->key[e])
             end++;
         int level = (int)(g->key[e] >> LEVEL_SHIFT);
+        int64_t cell[3];
+        key_cell(g->key[e] & ((1ULL << LEVEL_SHIFT) - 1), cell);
         for (Py_ssize_t i = e; i < end; i++)
             for (Py_ssize_t j = i + 1; j < end; j++) {
                 Py_ssize_t t = g->face[i], u = g->face[j];
                 w->candidates++;
-                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, level, g->key[e]))
+                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, level, cell))
                     consider(w, t, u);
             }
         e = end;
@@ -891,11 +891,12 @@ static void *search(void *arg)
                     for (int64_t b = c0[1]; b <= c1[1]; b++)
                         for (int64_t c = c0[2]; c <= c1[2]; c++) {
                             uint64_t key = cell_key(coarse, a, b, c);
+                            int64_t cell[3] = {a, b, c};
                             for (Py_ssize_t x = find_key(g, coarse, key); x >= 0 && x < g->n_entries
                                                                           && g->key[x] == key; x++) {
                                 Py_ssize_t u = g->face[x];
                                 w->candidates++;
-                                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, coarse, key))
+                                if (boxes_meet(g, t, u) && canonical_cell(g, t, u, coarse, cell))
                                     consider(w, t, u);
                             }
                         }

@@ -115,15 +115,18 @@ class ExactGeometry:
         -------
         Intersections
         """
-        from .parallel import thread_count
+        from .parallel import PARALLEL_ABOVE, thread_count
 
         faces = np.ascontiguousarray(faces, dtype=np.int64)
+        if threads is None:
+            # Starting threads costs more than it saves on small meshes.
+            threads = thread_count() if faces.shape[0] > PARALLEL_ABOVE else 1
         shells = np.ascontiguousarray(shells, dtype=np.int64)
         active = (np.ones(faces.shape[0], dtype=np.uint8) if active is None
                   else np.ascontiguousarray(active, dtype=np.uint8))
         flags, examples, found, candidates, tests = _extension().pairs(
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
-            int(max_examples), int(threads or thread_count()))
+            int(max_examples), int(threads))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
         order = np.lexsort((found[:, 1], found[:, 0]))
         found = found[order]

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import OpenMeshError
 from ..core.topology import match_edges
+from .surface import distinct_faces
 
 __all__ = ["NOISE_ULPS", "Welded", "weld_noise"]
 
@@ -55,8 +56,11 @@ def _tolerance(vertices, source_dtype):
     return NOISE_ULPS * float(np.spacing(storage(largest)))
 
 
-def weld_noise(mesh, *, path=None):
+def weld_noise(mesh, *, path=None, refusal=None):
     """Weld boundary vertices that differ by noise, or raise the open-mesh refusal with the gap sizes.
+
+    ``refusal``: the error the exact check raised; raised again when the
+    surface has duplicated faces (that is its problem, not a gap).
 
     Returns
     -------
@@ -73,6 +77,8 @@ def weld_noise(mesh, *, path=None):
     welded = _welded_within(mesh, boundary, points, _tolerance(vertices, mesh.source_dtype))
     if welded is not None:
         return welded
+    if refusal is not None and distinct_faces(faces).size < faces.shape[0]:
+        raise refusal
     extent = float(np.max(np.ptp(vertices[np.unique(faces)], axis=0)))
     # Would welding a little more close it?  Then say how little; else describe the openings.
     gaps = _nearest_unjoined(points, np.searchsorted(boundary, edges))

@@ -48,7 +48,6 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
             _self_checked(geometry, faces, labels, 1, path)
             checks["self_intersection"] = "none"
             swept = _snapped(geometry, vertices, faces)
-        checks["overlap"] = 0.0
         return Solid(mesh, checks, swept_volume=swept)
     six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
     zero = _zero_shells(vertices, faces, labels, six, bound)
@@ -66,8 +65,11 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     six = six * sign
     if flipped:
         faces = faces[:, ::-1].copy()
-    copy_six = 0.0 if copies is None or copies.size == 0 else float(
-        shell_six_volumes(vertices, copies, np.zeros(copies.shape[0], dtype=np.int64), 1)[0][0]) * sign
+    copy_six, copy_bound = 0.0, 0.0
+    if copies is not None and copies.size:
+        copy_six, copy_bound = (float(x[0]) for x in shell_six_volumes(
+            vertices, copies, np.zeros(copies.shape[0], dtype=np.int64), 1))
+        copy_six *= sign
     face_sign = six[labels] > 0
     geometry = _geometry(vertices)
     boxes = _shell_boxes(vertices, faces, labels, n_shells)
@@ -111,31 +113,26 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
             new_vertices = np.vstack([new_vertices, united.new_vertices])
             swept += united.swept_volume
             union_six.append(6.0 * united.volume)
-    naive = float(six[live].sum()) + copy_six
-    final = float(sum(six[u].sum() for u in keep)) + sum(union_six)
-    overlap = (naive - final) / 6.0
-    resolved = len(keep) < len(units) or bool(unite) or copy_six != 0.0
-    checks["overlap"] = overlap if resolved else 0.0
-    dropped = sum(len(u) for u, (kind, w) in zip(units, classes) if u not in keep and u not in unite)
+    dropped = sum(len(u) for u in units if u not in keep and u not in unite)
     if dropped:
         checks["dropped_shells"] = dropped
-    if resolved:
-        what = []
-        if unite:
-            what.append(f"{sum(len(u) for u in unite)} shells overlap")
-        if dropped:
-            what.append(f"{dropped} shells lie inside others with the same orientation")
-        if copy_six:
-            what.append("shells repeat")
-        warnings.append(f"{', '.join(what)}: the solid is their union, each point counted once "
-                        f"(volume counted more than once: {overlap:.6g}, checks.overlap)")
+    resolved = []
+    if unite:
+        resolved.append(f"{sum(len(u) for u in unite)} shells meet")
+    if dropped:
+        resolved.append(f"{dropped} shell{'s lie' if dropped > 1 else ' lies'} inside others with the same "
+                        "orientation")
+    if copy_six:
+        resolved.append("shells repeat")
+    naive = (float(six[live].sum()) + copy_six, float(bound[live].sum()) + (copy_bound if copy_six else 0.0))
     swept += _snapped(geometry, vertices, faces)
     if not resolved and not zero.any() and not flipped and faces is mesh.faces:
         return Solid(mesh, checks, tuple(warnings), swept)
+    checks_resolved = dict(resolved=tuple(resolved), naive_six=naive) if resolved else {}
     all_faces = np.vstack(kept_faces).astype(np.int64)
     out_vertices = np.vstack([vertices, new_vertices]) if new_vertices.size else vertices
     return Solid(mesh.with_faces(all_faces, out_vertices), checks, tuple(warnings), swept,
-                 faces[zero[labels]], flipped)
+                 faces[zero[labels]], flipped, **checks_resolved)
 
 
 def _decide(units, classes, path):

@@ -42,7 +42,7 @@ from ..core.integrate import reference_frame
 from ..core.topology import face_components
 
 __all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "without_repeated_faces", "solid_of",
-           "swept_volume", "widened"]
+           "swept_volume", "widened", "overlap_warning"]
 
 # By default the self-intersection check runs on meshes up to this many faces
 # (above, it would cost more than a quarter of the end-to-end time; measured
@@ -72,6 +72,12 @@ class Solid:
         their moments, which are within their rounding of zero, bound the error of dropping them.
     flipped : bool
         Every shell was wound inward and was turned outward.
+    resolved : tuple of str
+        What was united or dropped ("2 shells meet", ...); empty when nothing was.
+    naive_six : (float, float)
+        Six times the volume the shells enclose counted with multiplicity
+        (what summing their signed volumes gives), and a bound on its error:
+        the overlap is the difference from the solid's (:func:`overlap_warning`).
     """
 
     mesh: object
@@ -80,6 +86,8 @@ class Solid:
     swept_volume: float = 0.0
     zero_shell_faces: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
     flipped: bool = False
+    resolved: tuple = ()
+    naive_six: tuple = (0.0, 0.0)
 
 
 def without_unused_vertices(mesh):
@@ -295,6 +303,24 @@ def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
     return replace(moments, det_error=det_error, first_error=first_error, second_error=second_error)
 
 
+def overlap_warning(solid, moments):
+    """``(overlap, warning or None)``: the volume counted more than once, mesh units³, from the solid's moments.
+
+    Shells that only touch (boxes sharing a face) are united, but count
+    nothing twice: an overlap within the rounding bounds of both volumes is
+    zero, and nothing is said.
+    """
+    if not solid.resolved:
+        return 0.0, None
+    factor = math.ldexp(1.0, 3 * moments.scale_exp)
+    naive, naive_bound = solid.naive_six
+    overlap = (naive - moments.det_sum * factor) / 6.0
+    if abs(overlap) <= (naive_bound + moments.det_error * factor) / 6.0 * (1 + 1e-9):
+        return 0.0, None
+    return overlap, (f"{', '.join(solid.resolved)}: the solid is their union, each point counted once "
+                     f"(volume counted more than once: {overlap:.6g}, checks.overlap)")
+
+
 def refuse_self_intersection(examples, path):
     """Raise for a shell whose faces cross (one line naming two of them)."""
     a, b = (int(v) for v in examples[0])
@@ -302,7 +328,8 @@ def refuse_self_intersection(examples, path):
     raise MeshGeometryError(f"the surface intersects itself (faces {a} and {b} cross{more}): its signed volume is "
                             "not the volume it encloses, and manifold3d cannot unite a shell with itself",
                             path=path,
-                            fix="remove the crossing in a modeller (or unite the bodies it joins) and export again")
+                            fix="remove the crossing in a modeller (or unite the bodies it joins) and export again; "
+                                "--no-self-intersection integrates the signed volume as it is")
 
 
 def refuse_inside_out(count, n_shells, path):

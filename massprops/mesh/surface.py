@@ -165,6 +165,10 @@ def check_shells(mesh, path=None):
     checks : MeshChecks
     labels : ndarray, shape (m,), int64
         The shell (connected component of faces sharing vertices) of each face.
+    two_faces_an_edge : bool
+        Every edge is used by exactly two faces.  Then no face can repeat
+        another in the same orientation (its edges would be used four times),
+        and a face repeated reversed is a shell of two faces on its own.
 
     Raises
     ------
@@ -193,10 +197,12 @@ def check_shells(mesh, path=None):
     if np.any(balance):
         components()                  # let the shells' thread finish before refusing
         _refuse_unbalanced(faces, _uses(representative), balance, path)
+    # 3m directed edges in pairs: exactly 3m/2 edges when no edge is used more than twice.
+    distinct = int(np.count_nonzero(representative == np.arange(representative.size, dtype=representative.dtype)))
     del representative, direction, balance    # a balanced mesh needs them no more: free them before the shells
     labels, n_shells = components()
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
-                      duplicate_faces=0, degenerate_faces=degenerate), labels
+                      duplicate_faces=0, degenerate_faces=degenerate), labels, 2 * distinct == 3 * faces.shape[0]
 
 
 def _refuse_non_finite(vertices, faces, path):

@@ -112,32 +112,39 @@ def unite_shells(vertices, faces, labels, unit, *, offset, path=None):
 
 def _checked_union(vertices, faces, unit, out_vertices, out_faces, origin, offset, volume, path):
     """Map manifold's output onto exact vertices, verify it, and bound the rounding."""
-    index = {tuple(v): int(i) for i, v in zip(np.unique(faces[origin]).tolist(),
-                                                vertices[np.unique(faces[origin])].tolist())}
+    used = np.unique(faces[origin])
+    index = {tuple(v): int(i) for i, v in zip(used.tolist(), vertices[used].tolist())}
     mapped = np.array([index.get(tuple(v), -1) for v in out_vertices.tolist()], dtype=np.int64)
     new = np.flatnonzero(mapped < 0)
+    grid = _Grid(vertices, used, out_vertices)
     around = _incident(out_faces, out_vertices.shape[0])
     exact, corners = {}, set()
     rounded = np.zeros((new.size, 3))
     moved = np.zeros(new.size)
-    size = float(np.max(np.ptp(vertices[np.unique(faces[origin])], axis=0)))
+    size = float(np.max(np.ptp(vertices[used], axis=0)))
     for k, v in enumerate(new.tolist()):
-        point, corner = _exact_vertex(vertices, faces, np.unique(origin[around[v]]), out_vertices[v])
+        point, corner = _exact_vertex(grid, faces, np.unique(origin[around[v]]), v)
         if point is None:
             _refuse(f"a new vertex near {out_vertices[v].tolist()} is on no intersection of the original "
                     "triangles", unit, path)
-        rounded[k] = [float(c) for c in point] if corner else out_vertices[v]
+        rounded[k] = grid.rounded(point) if corner else out_vertices[v]
         if float(np.max(np.abs(rounded[k] - out_vertices[v]))) > 1e-6 * size:
             _refuse(f"a new vertex is {float(np.max(np.abs(rounded[k] - out_vertices[v]))):.3g} from the "
                     "exact intersection", unit, path)
         exact[v] = point
         if corner:
             corners.add(v)
-        moved[k] = _distance_up(point, rounded[k])
-    mapped[new] = offset + np.arange(new.size)
+        moved[k] = grid.distance_up(point, rounded[k])
+    mapped[new] = vertices.shape[0] + np.arange(new.size)       # numbered after the old vertices, for now
     united = mapped[out_faces]
-    _verify(vertices, faces, out_faces, united, origin, exact, corners, unit, path)
-    swept = swept_volume(np.vstack([vertices, rounded]), united, mapped[new], moved)
+    moves, defect = _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path)
+    shifted = np.zeros(vertices.shape[0] + new.size)
+    shifted[mapped[new]] = moved
+    for vertex, outside in moves.items():
+        shifted[vertex] += outside
+    touched = np.flatnonzero(shifted)
+    swept = swept_volume(np.vstack([vertices, rounded]), united, touched, shifted[touched]) + defect
+    united[united >= vertices.shape[0]] += offset - vertices.shape[0]
     return United(united, rounded, swept, volume)
 
 
@@ -149,8 +156,84 @@ def _incident(out_faces, n):
     return [corner_face[order[bounds[v]:bounds[v + 1]]] for v in range(n)]
 
 
-def _q(point):
-    return tuple(Fraction(float(c)) for c in point)
+class _Grid:
+    """Coordinates as Python integers on one power-of-two grid, so every test below is exact and fast.
+
+    Points are homogeneous: ``(X, D)`` is the point ``X / D · 2**exponent``
+    with integers ``X`` (3) and ``D > 0``; original and output vertices have ``D = 1``.
+    """
+
+    def __init__(self, vertices, used, out_vertices):
+        self.size = float(np.max(np.ptp(vertices[used], axis=0))) * math.sqrt(3.0)     # ≥ the box's diagonal
+        values = np.concatenate([vertices[used].ravel(), out_vertices.ravel()])
+        mantissa, exponent = np.frexp(values[values != 0])
+        self.exponent = int(exponent.min()) - 53 if exponent.size else 0
+        self._original = dict(zip(used.tolist(), self._ints(vertices[used])))
+        self._out = self._ints(out_vertices)
+        self._planes = {}
+
+    def _ints(self, points):
+        mantissa, exponent = np.frexp(np.asarray(points, dtype=np.float64))
+        whole = (mantissa * 2.0 ** 53).astype(np.int64).astype(object)
+        shift = np.where(mantissa == 0, 0, exponent.astype(np.int64) - 53 - self.exponent).astype(object)
+        return [tuple(int(m) << int(e) for m, e in zip(row_m, row_e)) for row_m, row_e in zip(whole, shift)]
+
+    def original(self, i):
+        return (self._original[int(i)], 1)
+
+    def output(self, v):
+        return (self._out[int(v)], 1)
+
+    def plane(self, face):
+        """Normal and offset of an original triangle's plane: n · x = d (integers)."""
+        key = tuple(int(i) for i in face)
+        if key not in self._planes:
+            a, b, c = (self._original[i] for i in key)
+            normal = _cross(_sub(b, a), _sub(c, a))
+            self._planes[key] = (normal, _dot(normal, a))
+        return self._planes[key]
+
+    def rounded(self, point):
+        """The nearest floats to a homogeneous point (correctly rounded, through Fraction)."""
+        (x, d), e = point, self.exponent
+        return [float(Fraction(c * 2 ** max(e, 0), d * 2 ** max(-e, 0))) for c in x]
+
+    def outside(self, point, triangle, normal):
+        """How far a point of the triangle's plane lies outside it, an upper bound (0 inside), mesh units."""
+        (x, d), worst = point, Fraction(0)
+        for p, q in ((triangle[0], triangle[1]), (triangle[1], triangle[2]), (triangle[2], triangle[0])):
+            side = _dot(_cross(_sub(q, p), _sub(x, _scaled(p, d))), normal)
+            if side < 0:
+                edge = _sub(q, p)
+                # distance² = (side / d)² / (|n|² |q − p|²), grid units²
+                worst = max(worst, Fraction(side * side, d * d * _dot(normal, normal) * _dot(edge, edge)))
+        return self._length_up(worst)
+
+    def signed_area(self, points, normal):
+        """The area of a triangle of homogeneous points wound against ``normal``, negative, mesh units² (rounded
+        away from zero); 0 for a triangle wound along it."""
+        (x0, d0), (x1, d1), (x2, d2) = points
+        y0, y1, y2 = _scaled(x0, d1 * d2), _scaled(x1, d0 * d2), _scaled(x2, d0 * d1)
+        along = _dot(_cross(_sub(y1, y0), _sub(y2, y0)), normal)
+        if along >= 0:
+            return 0.0                               # wound like its face (only the backward ones matter)
+        # area² = along² / (4 (d0 d1 d2)⁴ |n|²), grid units⁴
+        squared = Fraction(along * along, 4 * (d0 * d1 * d2) ** 4 * _dot(normal, normal))
+        return -self._length_up(squared, power=2)
+
+    def _length_up(self, squared, power=1):
+        """``sqrt(squared)`` in mesh units (a length, or an area with ``power=2``) rounded up; 0 for 0."""
+        if squared == 0:
+            return 0.0
+        value = squared * Fraction(2) ** (2 * power * self.exponent)
+        return math.sqrt(float(value)) * (1 + 1e-12) + 2.0 ** -1070
+
+    def distance_up(self, point, floats):
+        """An upper bound on the distance between a homogeneous point and floats (mesh units)."""
+        (x, d), e = point, self.exponent
+        scale = Fraction(2) ** e
+        squared = sum((Fraction(c, d) * scale - Fraction(float(f))) ** 2 for c, f in zip(x, floats))
+        return math.sqrt(float(squared)) * (1 + 2.0 ** -48) + 2.0 ** -1070
 
 
 def _sub(a, b):
@@ -165,24 +248,27 @@ def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _plane(vertices, face):
-    a, b, c = (_q(vertices[i]) for i in face)
-    normal = _cross(_sub(b, a), _sub(c, a))
-    return normal, _dot(normal, a)
+def _scaled(a, k):
+    return (a[0] * k, a[1] * k, a[2] * k)
 
 
-def _exact_vertex(vertices, faces, origins, approximate):
-    """Where a new vertex belongs, exactly: ``(point, is_corner)``, or ``(None, False)``.
+def _on_plane(plane, point):
+    (normal, offset), (x, d) = plane, point
+    return _dot(normal, x) == offset * d
+
+
+def _exact_vertex(grid, faces, origins, v):
+    """Where new output vertex ``v`` belongs, exactly: ``(homogeneous point, is_corner)``, or ``(None, False)``.
 
     The planes of the original triangles ``origins`` around it meet in a
     point (three independent planes): that point, a corner of the union,
     exactly.  Two independent planes meet in a line along which the vertex is
     a collinear point of a crease, and one plane holds a flat fan: moving the
     vertex along that line or in that plane changes no integral, so the exact
-    surface has it at the nearest point of the line or plane, ``approximate``
-    projected (only its distance from there counts).
+    surface has it at the nearest point of the line or plane, manifold's
+    vertex projected (only its distance from there counts).
     """
-    planes = [_plane(vertices, faces[f]) for f in origins.tolist()]
+    planes = [grid.plane(faces[f]) for f in origins.tolist()]
     independent = []
     for normal, offset in planes:
         trial = independent + [(normal, offset)]
@@ -191,30 +277,29 @@ def _exact_vertex(vertices, faces, origins, approximate):
         if len(independent) == 3:
             break
     if len(independent) == 3:
-        point = _three_planes(*independent)
-        corner = True
+        point, corner = _three_planes(*independent), True
     elif independent:
-        point, corner = _projection(_q(approximate), independent), False
+        point, corner = _projection(grid.output(v), independent), False
     else:
         return None, False
-    if not all(_dot(n, point) == d for n, d in planes):
+    if not all(_on_plane(plane, point) for plane in planes):
         return None, False
     return point, corner
 
 
-def _projection(x, planes):
-    """The point nearest to ``x`` on the intersection of one or two independent planes (rationals)."""
-    n1, d1 = planes[0]
+def _projection(point, planes):
+    """The point nearest to ``point`` on the intersection of one or two independent planes."""
+    (x, one), (n1, d1) = point, planes[0]
     if len(planes) == 1:
-        t = (d1 - _dot(n1, x)) / _dot(n1, n1)
-        return tuple(x[k] + t * n1[k] for k in range(3))
+        g = _dot(n1, n1)
+        return (tuple(x[k] * g + (d1 - _dot(n1, x)) * n1[k] for k in range(3)), g)
     n2, d2 = planes[1]
-    # x + a n1 + b n2 on both planes: a 2×2 system in a, b.
+    # x + a n1 + b n2 on both planes: a 2×2 system in a, b (Gram matrix, positive determinant).
     g11, g12, g22 = _dot(n1, n1), _dot(n1, n2), _dot(n2, n2)
     r1, r2 = d1 - _dot(n1, x), d2 - _dot(n2, x)
     det = g11 * g22 - g12 * g12
-    a, b = (r1 * g22 - r2 * g12) / det, (r2 * g11 - r1 * g12) / det
-    return tuple(x[k] + a * n1[k] + b * n2[k] for k in range(3))
+    a, b = r1 * g22 - r2 * g12, r2 * g11 - r1 * g12
+    return (tuple(x[k] * det + a * n1[k] + b * n2[k] for k in range(3)), det)
 
 
 def _rank(normals):
@@ -229,45 +314,57 @@ def _three_planes(p1, p2, p3):
     (n1, d1), (n2, d2), (n3, d3) = p1, p2, p3
     c23, c31, c12 = _cross(n2, n3), _cross(n3, n1), _cross(n1, n2)
     det = _dot(n1, c23)
-    return tuple((d1 * c23[k] + d2 * c31[k] + d3 * c12[k]) / det for k in range(3))
+    sign = 1 if det > 0 else -1
+    return (tuple(sign * (d1 * c23[k] + d2 * c31[k] + d3 * c12[k]) for k in range(3)), sign * det)
 
 
-def _distance_up(point, rounded):
-    """An upper bound on the distance between an exact point and its rounding."""
-    squared = sum((p - Fraction(float(r))) ** 2 for p, r in zip(point, rounded))
-    return math.sqrt(float(squared)) * (1 + 2.0 ** -48) + 2.0 ** -1070
+def _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path):
+    """Closed and consistently wound; each output triangle in its original one's plane, wound alike, with its
+    corners (original vertices and union corners) inside that triangle.
 
+    manifold's float decisions can leave a corner outside its face, or a
+    sliver wound backwards, by amounts of the order of the coordinates'
+    rounding.  Those are bounded, not refused: a corner ``ε`` outside is a
+    vertex moved by ``ε`` (returned per vertex), a backward sliver of area
+    ``a`` changes any integral by at most that of a cone ``2 a · size / 3``
+    (returned as a volume).  Anything beyond :data:`_SLACK` of the part's
+    size is refused.
 
-def _verify(vertices, faces, out_faces, united, origin, exact, corners, unit, path):
-    """Closed, consistently wound, each output triangle in its original one's plane, wound alike, and its
-    corners (original vertices and union corners) inside that triangle."""
-    n = vertices.shape[0] + len(exact) + 1
-    uses, balance = edge_balance(united, int(united.max()) + 1 if united.size else n)
+    Returns
+    -------
+    moves : dict {united vertex: ε}, defect : float (mesh units³)
+    """
+    uses, balance = edge_balance(united, int(united.max()) + 1)
     if np.any(balance) or np.any(uses % 2):
         _refuse("the result is not a closed, consistently wound surface", unit, path)
-    unchanged = np.all(united == faces[origin], axis=1) | np.all(united == np.roll(faces[origin], 1, axis=1),
-                                                                 axis=1) \
-        | np.all(united == np.roll(faces[origin], 2, axis=1), axis=1)
-    position = {}
-
-    def corner(out_vertex, united_vertex):
-        if out_vertex in exact:
-            return exact[out_vertex]
-        if united_vertex not in position:
-            position[united_vertex] = _q(vertices[united_vertex])
-        return position[united_vertex]
-
+    own = faces[origin]
+    unchanged = np.zeros(united.shape[0], dtype=bool)
+    for turn in range(3):
+        unchanged |= np.all(united == np.roll(own, turn, axis=1), axis=1)
+    moves, defect, size = {}, 0.0, grid.size
     for t in np.flatnonzero(~unchanged).tolist():
-        a, b, c = (_q(vertices[i]) for i in faces[origin[t]])
-        normal = _cross(_sub(b, a), _sub(c, a))
-        points = [corner(int(o), int(u)) for o, u in zip(out_faces[t], united[t])]
-        for o, x in zip(out_faces[t].tolist(), points):
-            if _dot(normal, _sub(x, a)) != 0:
+        face = faces[origin[t]].tolist()
+        plane = grid.plane(face)
+        corners_abc = [grid.original(i)[0] for i in face]
+        points = [exact[o] if o in exact else grid.original(u)
+                  for o, u in zip(out_faces[t].tolist(), united[t].tolist())]
+        for o, u, point in zip(out_faces[t].tolist(), united[t].tolist(), points):
+            if not _on_plane(plane, point):
                 _refuse(f"a triangle from original face {int(origin[t])} leaves its plane", unit, path)
-            if o in exact and o not in corners:
-                continue                     # a crease or flat-fan point: free along its line or plane
-            for p, q in ((a, b), (b, c), (c, a)):
-                if _dot(_cross(_sub(q, p), _sub(x, p)), normal) < 0:
-                    _refuse(f"a triangle from original face {int(origin[t])} leaves that face", unit, path)
-        if _dot(_cross(_sub(points[1], points[0]), _sub(points[2], points[0])), normal) < 0:
-            _refuse(f"a triangle from original face {int(origin[t])} is wound against it", unit, path)
+            if (o in exact and o not in corners) or (o not in exact and u in face):
+                continue                     # free along its crease or fan; or a corner of the face itself
+            outside = grid.outside(point, corners_abc, plane[0])
+            if outside > _SLACK * size:
+                _refuse(f"a triangle from original face {int(origin[t])} leaves that face", unit, path)
+            if outside:
+                moves[u] = max(moves.get(u, 0.0), outside)
+        area = grid.signed_area(points, plane[0])
+        if area < 0:
+            if -area > _SLACK * size * size:
+                _refuse(f"a triangle from original face {int(origin[t])} is wound against it", unit, path)
+            defect += 2.0 * -area * size / 3.0
+    return moves, defect
+
+
+# What manifold's float decisions may leave, relative to the part's size (lengths; areas its square).
+_SLACK = 1e-9
