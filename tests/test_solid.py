@@ -18,7 +18,7 @@ from massprops.io import obj as obj_io
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
 from massprops.validation import solids
-from oracle import exact_properties
+from oracle import exact_properties, rational_moments
 
 
 def box(low, high):
@@ -88,38 +88,14 @@ def _tetra_triangles(p):
     """Outward triangles of the tetrahedron with corners p[0..3] (any order)."""
     faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
     triangles = [[p[i] for i in f] for f in faces]
-    if _raw(triangles)[0] < 0:
+    if rational_moments([(1, triangles)])[0] < 0:
         triangles = [t[::-1] for t in triangles]
     return triangles
 
 
-def _raw(triangles):
-    """Exact ∫1, ∫x, ∫x xᵀ of a closed triangle surface (rational corners), by signed tetrahedra."""
-    volume, first, second = Fraction(0), [Fraction(0)] * 3, [[Fraction(0)] * 3 for _ in range(3)]
-    for a, b, c in triangles:
-        a, b, c = ([Fraction(v) for v in p] for p in (a, b, c))
-        det = (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-               + a[2] * (b[0] * c[1] - b[1] * c[0]))
-        s = [a[i] + b[i] + c[i] for i in range(3)]
-        volume += det / 6
-        first = [first[i] + det * s[i] / 24 for i in range(3)]
-        second = [[second[i][j] + det * (s[i] * s[j] + a[i] * a[j] + b[i] * b[j] + c[i] * c[j]) / 120
-                   for j in range(3)] for i in range(3)]
-    return volume, first, second
-
-
 def _rational_union(parts, minus):
-    volume, first, second = Fraction(0), [Fraction(0)] * 3, [[Fraction(0)] * 3 for _ in range(3)]
-    for triangles, sign in [(t, 1) for t in parts] + [(t, -1) for t in minus]:
-        v, f, s = _raw(triangles)
-        volume += sign * v
-        first = [first[i] + sign * f[i] for i in range(3)]
-        second = [[second[i][j] + sign * s[i][j] for j in range(3)] for i in range(3)]
-    g = [f / volume for f in first]
-    central = [[second[i][j] - volume * g[i] * g[j] for j in range(3)] for i in range(3)]
-    trace = central[0][0] + central[1][1] + central[2][2]
-    inertia = [[(trace if i == j else 0) - central[i][j] for j in range(3)] for i in range(3)]
-    return {"volume": volume, "center_of_mass": g, "inertia_com": inertia}
+    volume, center, inertia = rational_moments([(1, t) for t in parts] + [(-1, t) for t in minus])
+    return {"volume": volume, "center_of_mass": center, "inertia_com": inertia}
 
 
 def test_a_body_written_twice_counts_once(tmp_path):

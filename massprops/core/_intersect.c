@@ -14,7 +14,7 @@
  *   pairs(V, F, shell, active, ...)  triangle pairs that intersect, through a
  *                                    hierarchical hash grid, in threads
  *   winding(V, F, points)            winding numbers of points off the surface
- *   orient3d_signs(P), orient2d_signs(P)   batches of the predicates
+ *   orient3d_signs(P)                a batch of the predicate
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -342,23 +342,30 @@ static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t itemsize, int w
     return 0;
 }
 
+/* The buffers of vertices (float64), faces (int64) and a third array; all or none are held. */
+static int get_three(PyObject *vo, PyObject *fo, PyObject *xo, Py_buffer *vb, Py_buffer *fb, Py_buffer *xb,
+                     Py_ssize_t x_itemsize, int x_writable, const char *x_name)
+{
+    if (get_buffer(vo, vb, 8, 0, "vertices") < 0)
+        return -1;
+    if (get_buffer(fo, fb, 8, 0, "faces") < 0) {
+        PyBuffer_Release(vb);
+        return -1;
+    }
+    if (get_buffer(xo, xb, x_itemsize, x_writable, x_name) < 0) {
+        PyBuffer_Release(vb);
+        PyBuffer_Release(fb);
+        return -1;
+    }
+    return 0;
+}
+
 static PyObject *py_degenerate(PyObject *self, PyObject *args)
 {
     PyObject *vo, *fo, *oo;
     Py_buffer vb, fb, ob;
-    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &oo))
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &oo) || get_three(vo, fo, oo, &vb, &fb, &ob, 1, 1, "out") < 0)
         return NULL;
-    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
-        return NULL;
-    if (get_buffer(fo, &fb, 8, 0, "faces") < 0) {
-        PyBuffer_Release(&vb);
-        return NULL;
-    }
-    if (get_buffer(oo, &ob, 1, 1, "out") < 0) {
-        PyBuffer_Release(&vb);
-        PyBuffer_Release(&fb);
-        return NULL;
-    }
     const double *V = vb.buf;
     const int64_t *F = fb.buf;
     uint8_t *out = ob.buf;
@@ -1101,20 +1108,9 @@ static int crossings(const double *V, const int64_t *F, Py_ssize_t m, const doub
 static PyObject *py_winding(PyObject *self, PyObject *args)
 {
     PyObject *vo, *fo, *po;
-    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &po))
-        return NULL;
     Py_buffer vb, fb, pb;
-    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &po) || get_three(vo, fo, po, &vb, &fb, &pb, 8, 0, "points") < 0)
         return NULL;
-    if (get_buffer(fo, &fb, 8, 0, "faces") < 0) {
-        PyBuffer_Release(&vb);
-        return NULL;
-    }
-    if (get_buffer(po, &pb, 8, 0, "points") < 0) {
-        PyBuffer_Release(&vb);
-        PyBuffer_Release(&fb);
-        return NULL;
-    }
     const double *V = vb.buf, *points = pb.buf;
     const int64_t *F = fb.buf;
     Py_ssize_t m = fb.len / 24, k = pb.len / 24;
@@ -1213,30 +1209,6 @@ static PyObject *py_orient3d_signs(PyObject *self, PyObject *args)
     return out;
 }
 
-static PyObject *py_orient2d_signs(PyObject *self, PyObject *args)
-{
-    PyObject *po;
-    if (!PyArg_ParseTuple(args, "O", &po))
-        return NULL;
-    Py_buffer pb;
-    if (get_buffer(po, &pb, 8, 0, "points") < 0)
-        return NULL;
-    Py_ssize_t k = pb.len / 48;
-    PyObject *out = PyBytes_FromStringAndSize(NULL, k);
-    if (out) {
-        const double *x = pb.buf;
-        int8_t *s = (int8_t *)PyBytes_AS_STRING(out);
-        Py_BEGIN_ALLOW_THREADS
-        for (Py_ssize_t i = 0; i < k; i++) {
-            const double *r = x + 6 * i;
-            s[i] = (int8_t)orient2d(r[0], r[1], r[2], r[3], r[4], r[5]);
-        }
-        Py_END_ALLOW_THREADS
-    }
-    PyBuffer_Release(&pb);
-    return out;
-}
-
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -1245,7 +1217,6 @@ static PyMethodDef methods[] = {
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests)"},
     {"winding", py_winding, METH_VARARGS, "winding(vertices, faces, points) -> int64 winding numbers (bytes)"},
     {"orient3d_signs", py_orient3d_signs, METH_VARARGS, "orient3d_signs(points (k, 4, 3)) -> int8 signs (bytes)"},
-    {"orient2d_signs", py_orient2d_signs, METH_VARARGS, "orient2d_signs(points (k, 3, 2)) -> int8 signs (bytes)"},
     {NULL, NULL, 0, NULL},
 };
 

@@ -190,17 +190,7 @@ def _relabel(faces, boundary, target):
 def _loops(edges):
     """Label of the boundary loop (connected set of boundary edges) of each boundary vertex, and the count."""
     vertices = np.unique(edges)
-    local = np.searchsorted(vertices, edges)
-    parent = np.arange(vertices.size)
-    changed = True
-    while changed:
-        low = np.minimum(parent[local[:, 0]], parent[local[:, 1]])
-        before = parent.copy()
-        np.minimum.at(parent, local[:, 0], low)
-        np.minimum.at(parent, local[:, 1], low)
-        parent = parent[parent]
-        changed = not np.array_equal(before, parent)
-    labels = np.unique(parent, return_inverse=True)[1]
+    labels = np.unique(_clusters(vertices.size, np.searchsorted(vertices, edges)), return_inverse=True)[1]
     return labels, int(labels.max()) + 1
 
 
