@@ -8,7 +8,8 @@ Nothing heavy is imported here: trimesh, scipy and meshio load only when a
 reader or command needs them.
 """
 
-from .compute import Result, mass_properties
+from .api import mass_properties
+from .compute import Result
 from .errors import MassPropsError
 from .frames import Pose
 from .mesh import TriangleMesh

@@ -13,26 +13,49 @@ from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 from .core import integrate as _integrate
-from .errors import MassPropsError, OptionError
+from .frames import Pose
+from .errors import ArgumentTypeError, MassPropsError, OptionError
+from .mesh.arrays import as_mesh, is_path
 from .mesh.surface import TriangleMesh
 from .core.parallel import PARALLEL_ABOVE, start
 from .properties import MassProperties, unit_factor
 from .resolution import annotate
 
-__all__ = ["mass_properties", "Result", "QUANTITIES", "order_for"]
+__all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities"]
 
 # Quantities for --only, and the highest moment each needs.
 QUANTITIES = {"volume": 0, "mass": 0, "surface_area": 0, "center_of_mass": 1, "inertia": 2, "principal": 2}
 
 
+def quantities(only):
+    """The set of quantities ``only`` names: None (everything), one name, ``"a,b"``, or an iterable of names."""
+    if only is None:
+        return None
+    if isinstance(only, str):
+        only = only.split(",")
+    try:
+        wanted = {q.strip() if isinstance(q, str) else q for q in only}
+    except TypeError:
+        raise ArgumentTypeError(f"only: expected a quantity name or a list of them, got {type(only).__name__}",
+                                fix=f"pick from {', '.join(QUANTITIES)}") from None
+    unknown = [q for q in wanted if q not in QUANTITIES]
+    if unknown or not wanted:
+        shown = repr(unknown[0]) if unknown else "nothing"
+        raise OptionError(f"unknown quantity {shown} for {{only}}", fix=f"pick from {', '.join(QUANTITIES)}")
+    return wanted
+
+
+def check_pose(pose):
+    """Refuse a ``pose`` that is not a :class:`Pose` (a 4×4 matrix, a tuple...) with what to do instead."""
+    if pose is not None and not isinstance(pose, Pose):
+        raise ArgumentTypeError(f"pose: expected a massprops.Pose, got {type(pose).__name__}",
+                                fix="build one, e.g. Pose.from_matrix(R, translation=t) or Pose.from_quat(q)")
+
+
 def order_for(only):
     """Highest moment needed for the quantities in ``only`` (None: everything)."""
-    if not only:
-        return 2
-    unknown = [q for q in only if q not in QUANTITIES]
-    if unknown:
-        raise OptionError(f"unknown quantity {unknown[0]!r} for --only", fix=f"pick from {', '.join(QUANTITIES)}")
-    return max(QUANTITIES[q] for q in only)
+    wanted = quantities(only)
+    return 2 if not wanted else max(QUANTITIES[q] for q in wanted)
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,33 +73,12 @@ class Result:
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, self_intersection=None):
+                    density_field=None, density_map=None, shell=None, max_unpacked=None, self_intersection=None):
     """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
-    Parameters
-    ----------
-    source : str, os.PathLike, TriangleMesh or VolumeMesh
-        A mesh file (any registered format) or a mesh in its local frame.
-    density, mass, unit
-        See :meth:`MassProperties.from_moments`.
-    pose : Pose, optional
-        Where the part sits in the global frame.
-    repair : bool
-        Re-orient faces, remove duplicates and close small holes instead of
-        refusing the mesh; what changed is listed in ``Result.warnings``.
-    only : iterable of str, optional
-        Quantities wanted (keys of ``QUANTITIES``); volume alone forms no
-        first or second moments.
-    density_field, density_map : optional
-        Per-cell density of a volume mesh: a cell-data array's name, or
-        ``{group: density}`` (see :func:`massprops.mesh.volume.cell_densities`).
-    shell : float, optional
-        Treat the surface as a sheet of this thickness (mesh units), see
-        :mod:`massprops.mesh.sheet`.
-    self_intersection : bool, optional
-        Check that no shell intersects itself: True always, False never,
-        None (default) up to :data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`
-        faces.  ``checks["self_intersection"]`` says what was found.
+    The pipeline behind :func:`massprops.mass_properties` (which also takes
+    scenes); see there for the parameters.  ``source`` is a path or anything
+    :func:`massprops.mesh.arrays.as_mesh` accepts.
 
     Returns
     -------
@@ -84,13 +86,14 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     """
     start = time.perf_counter()
     order = order_for(only)
+    check_pose(pose)
     path = None
-    if isinstance(source, (str, os.PathLike)):
-        path = os.fspath(source)
+    if is_path(source):
+        path = os.fsdecode(source)
         from .io import read
-        mesh = read(path)
+        mesh = read(path, max_unpacked=max_unpacked)
     else:
-        mesh = source
+        mesh = as_mesh(source)
     unit, unit_note = _length_unit(mesh, unit)
     try:
         if shell is not None or density_field is not None or density_map is not None \
@@ -115,9 +118,9 @@ def _length_unit(mesh, unit):
         return unit, None
     if unit is None:
         return declared, (f"the file gives its length unit ({declared}): results are in SI units (m, kg), "
-                          "density in kg/m³; --unit overrides it")
+                          "density in kg/m³; a unit given overrides it")
     if unit != declared:
-        return unit, f"the file gives its length unit as {declared}; --unit {unit} overrides it"
+        return unit, f"the file gives its length unit as {declared}; the unit given, {unit}, overrides it"
     return unit, None
 
 
@@ -125,14 +128,14 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
     """A surface as a sheet (``shell``), or a volume mesh's cells."""
     if shell is not None:
         if density_field is not None or density_map is not None:
-            raise OptionError("--density-field and --density-map need a volume mesh, not --shell")
+            raise OptionError("{density_field} and {density_map} need a volume mesh, not {shell}")
         from .mesh.sheet import shell_mass_properties
         props, checks, warnings = shell_mass_properties(mesh, shell, order=order, path=path, **material)
         triangles = int(mesh.faces.shape[0])
     else:
         from .mesh.volume import VolumeMesh, volume_mass_properties
         if not isinstance(mesh, VolumeMesh):
-            raise OptionError("--density-field and --density-map need a volume mesh (cells with cell data or "
+            raise OptionError("{density_field} and {density_map} need a volume mesh (cells with cell data or "
                               "groups)", path=path, fix="give a .vtu, .msh, .inp, ... file with volume cells")
         props, triangles, checks, warnings = volume_mass_properties(
             mesh, order=order, density_field=density_field, density_map=density_map, path=path, **material)

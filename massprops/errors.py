@@ -3,9 +3,19 @@
 Every error names the input (``path``), says what is wrong (``problem``) and
 what to do about it (``fix``); ``str(err)`` is the one line the command line
 prints after ``error:``.  The library raises; only :mod:`massprops.cli` prints.
+
+Options in messages
+-------------------
+A message that names an option writes it as a placeholder, ``{repair}`` or
+``{shell=THICKNESS}`` (:func:`option` builds one inside an f-string).  The
+error renders it for its audience: ``str(err)`` (Python callers) spells
+keyword arguments, ``repair=True`` and ``shell=THICKNESS``;
+``err.render("cli")`` spells options, ``--repair`` and ``--shell THICKNESS``.
 """
 
 from __future__ import annotations
+
+import re
 
 __all__ = [
     "MassPropsError",
@@ -15,7 +25,51 @@ __all__ = [
     "OpenMeshError",
     "WindingError",
     "OptionError",
+    "OutputError",
+    "ArgumentTypeError",
+    "option",
+    "render_options",
 ]
+
+# Options that are both keyword arguments of the library and command-line options.
+# Flags: a bare placeholder means "turn it on" (repair=True / --repair).
+_FLAGS = frozenset({"repair", "recursive", "resume"})
+_VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
+                     "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
+                     "omega", "about", "rotate", "translate"})
+# On/off switches with an option each way: {name=True} is --name, {name=False} is --no-name.
+_SWITCHES = frozenset({"self_intersection"})
+OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES
+_PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9]+))?\}")
+STYLES = ("python", "cli")
+
+
+def option(name, value=None):
+    """The placeholder for option ``name`` (with an example ``value``), for use inside f-strings."""
+    if name not in OPTION_NAMES:
+        raise KeyError(f"{name!r} is not an option massprops names in messages")
+    return "{" + name + ("" if value is None else f"={value}") + "}"
+
+
+def _spell(match, style):
+    name, value = match.group(1), match.group(2)
+    if name not in OPTION_NAMES:
+        return match.group(0)
+    if style == "cli":
+        flag = "--" + name.replace("_", "-")
+        if name in _SWITCHES:
+            return flag if value != "False" else "--no-" + flag[2:]
+        return flag if value is None else f"{flag} {value}"
+    if value is None:
+        return f"{name}=True" if name in _FLAGS else name
+    return f"{name}={value}"
+
+
+def render_options(text, style="python"):
+    """``text`` with its option placeholders spelled for ``style`` (``"python"`` or ``"cli"``)."""
+    if style not in STYLES:
+        raise ValueError(f"style must be one of {STYLES}, got {style!r}")
+    return _PLACEHOLDER.sub(lambda m: _spell(m, style), text) if "{" in text else text
 
 
 class MassPropsError(Exception):
@@ -28,22 +82,30 @@ class MassPropsError(Exception):
     path : str or os.PathLike, optional
         The input file the problem is in.
     fix : str, optional
-        What the user can do about it, e.g. ``"close the holes or pass --repair"``.
+        What the user can do about it, e.g. ``"close the holes or pass {repair}"``.
     """
 
     def __init__(self, problem, *, path=None, fix=None):
         self.problem = problem
         self.path = None if path is None else str(path)
         self.fix = fix
-        super().__init__(self._line())
+        super().__init__(problem)
 
-    def _line(self):
-        line = self.problem if self.path is None else f"{self.path}: {self.problem}"
-        return line if not self.fix else f"{line} — {self.fix}"
+    def render(self, style="python", *, with_path=True):
+        """The one line: ``PATH: problem — fix``, options spelled for ``style`` (``"python"`` or ``"cli"``)."""
+        line = self.problem if self.path is None or not with_path else f"{self.path}: {self.problem}"
+        return render_options(line if not self.fix else f"{line} — {self.fix}", style)
+
+    def __str__(self):
+        return self.render()
 
     def with_path(self, path):
         """Return a copy of this error attributed to ``path``."""
         return type(self)(self.problem, path=path, fix=self.fix)
+
+    def with_context(self, context, *, path=None):
+        """A copy whose problem starts with ``context`` (e.g. ``"part 'arm'"``); ``path`` if it had none."""
+        return type(self)(f"{context}: {self.problem}", path=self.path or path, fix=self.fix)
 
 
 class MeshFormatError(MassPropsError, ValueError):
@@ -51,7 +113,7 @@ class MeshFormatError(MassPropsError, ValueError):
 
 
 class MeshReadError(MassPropsError, OSError):
-    """The file cannot be read at all (missing, a directory, no permission)."""
+    """The file cannot be read at all (missing, a directory, a device, no permission)."""
 
 
 class MeshGeometryError(MassPropsError, ValueError):
@@ -68,3 +130,11 @@ class WindingError(MeshGeometryError):
 
 class OptionError(MassPropsError, ValueError):
     """An option value is invalid (a non-orthonormal rotation, a negative density...)."""
+
+
+class OutputError(MassPropsError, OSError):
+    """An output (a report, a plot) cannot be written: a full disk, a missing folder, no permission."""
+
+
+class ArgumentTypeError(MassPropsError, TypeError):
+    """An argument of the Python API has the wrong type (a list of paths, float face indices...)."""

@@ -16,10 +16,28 @@ import numpy as np
 
 from .errors import OptionError
 
-__all__ = ["Pose", "matmul", "matvec", "quat_to_matrix", "quat_from_matrix", "quat_multiply", "quat_conjugate",
+__all__ = ["Pose", "frozen_array", "matmul", "matvec", "quat_to_matrix", "quat_from_matrix", "quat_multiply", "quat_conjugate",
            "axis_angle_quat", "rotate_inertia", "parallel_axis", "inertia_about_frame", "skew"]
 
 _ORTHONORMAL_TOL = 1e-9
+
+
+def frozen_array(value, shape=None, *, name="array"):
+    """A read-only float64 copy of ``value`` (of ``shape`` if given, finite), for immutable results.
+
+    An array that is already read-only float64 of that shape is returned as is.
+    """
+    if type(value) is np.ndarray and value.dtype == np.float64 and not value.flags.writeable \
+            and (shape is None or value.shape == shape):
+        return value
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise OptionError(f"{name} must be numbers of shape {shape}, got {value!r}") from None
+    if shape is not None and array.shape != shape:
+        raise OptionError(f"{name} must have shape {shape}, got {array.shape}")
+    array.setflags(write=False)
+    return array
 
 
 def matmul(a, b):
@@ -121,6 +139,15 @@ class Pose:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     translation: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+    def __post_init__(self):
+        # Read-only copies: a pose is a value, and results cache what they derive from it.
+        rotation = frozen_array(self.rotation, (3, 3), name="a pose's rotation")
+        translation = frozen_array(self.translation, (3,), name="a pose's translation")
+        if not (np.isfinite(rotation).all() and np.isfinite(translation).all()):
+            raise OptionError("a pose needs finite numbers", fix="give a finite rotation and translation")
+        object.__setattr__(self, "rotation", rotation)
+        object.__setattr__(self, "translation", translation)
+
     @classmethod
     def from_quat(cls, quat, *, scalar_first=True, translation=(0.0, 0.0, 0.0)):
         """Pose from a quaternion (normalised here; zero length is refused)."""
@@ -130,7 +157,7 @@ class Pose:
         if not float(q @ q) > 0:          # zero, or so small that its square underflows
             raise OptionError("a quaternion of zero length is no rotation", fix="give w,x,y,z with w=1 for none")
         rotation = quat_to_matrix(q if scalar_first else np.roll(q, 1))
-        return cls(rotation, np.asarray(translation, dtype=float))
+        return cls(rotation, translation)
 
     @classmethod
     def from_euler(cls, seq, angles, *, degrees=True, translation=(0.0, 0.0, 0.0)):
@@ -142,6 +169,8 @@ class Pose:
         angles = np.atleast_1d(np.asarray(angles, dtype=float))
         if angles.shape != (len(seq),):
             raise OptionError(f"Euler sequence {seq!r} needs {len(seq)} angles, got {angles.size}")
+        if not np.isfinite(angles).all():
+            raise OptionError(f"Euler angles must be finite numbers, got {', '.join(map(str, angles))}")
         if degrees:
             angles = np.radians(angles)
         rotation = np.eye(3)
@@ -149,7 +178,7 @@ class Pose:
             step = _axis_rotation("xyz".index(letter.lower()), angle)
             # Extrinsic: each new rotation applies after (left of) the previous ones.
             rotation = matmul(step, rotation) if seq.islower() else matmul(rotation, step)
-        return cls(rotation, np.asarray(translation, dtype=float))
+        return cls(rotation, translation)
 
     @classmethod
     def from_matrix(cls, matrix, *, translation=(0.0, 0.0, 0.0)):
@@ -164,7 +193,7 @@ class Pose:
         if np.linalg.det(m) < 0:
             raise OptionError("the rotation matrix has det −1 (a reflection)",
                               fix="give a proper rotation (det +1)")
-        return cls(m, np.asarray(translation, dtype=float))
+        return cls(m, translation)
 
     @classmethod
     def parse(cls, text, *, translation=(0.0, 0.0, 0.0)):

@@ -43,6 +43,10 @@ class Principal:
     tolerance: float
     axes_error: tuple = ()
 
+    def __post_init__(self):
+        self.moments.setflags(write=False)        # principal() made them; read-only like every result
+        self.axes.setflags(write=False)
+
 
 def degenerate_groups(moments, tolerance):
     """Index groups of consecutive ascending moments closer than ``tolerance``."""

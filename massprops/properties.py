@@ -17,7 +17,7 @@ import numpy as np
 
 from .core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
-from .frames import Pose, inertia_about_frame, matvec, parallel_axis, rotate_inertia
+from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia
 from .principal import DEFAULT_RTOL, principal
 
 __all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
@@ -25,10 +25,8 @@ __all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
 UNITS = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000), "um": Fraction(1, 10 ** 6),
          "in": Fraction(254, 10000), "ft": Fraction(3048, 10000)}
 _NO_UNIT = Fraction(1)
-# One shared identity pose, its arrays read-only: making a Pose costs more than the rest of a small part's result.
+# One shared identity pose: making a Pose costs more than the rest of a small part's result.
 _NO_POSE = Pose()
-_NO_POSE.rotation.setflags(write=False)
-_NO_POSE.translation.setflags(write=False)
 
 
 def unit_factor(unit):
@@ -110,7 +108,7 @@ def _on_common_scale(values):
 
 def _check_material(density, mass):
     if density is not None and mass is not None:
-        raise OptionError("give --density or --mass, not both")
+        raise OptionError("give {density} or {mass}, not both")
     for name, value in (("density", density), ("mass", mass)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise OptionError(f"{name} must be a positive number, got {value!r}")
@@ -212,6 +210,13 @@ class MassProperties:
     unit: str | None = None
     degenerate_rtol: float = DEFAULT_RTOL
 
+    def __post_init__(self):
+        # Read-only arrays: the cached derived values (principal axes, global tensors) cannot go stale.
+        if self.center_of_mass is not None:
+            object.__setattr__(self, "center_of_mass", frozen_array(self.center_of_mass, (3,), name="center_of_mass"))
+        if self.inertia_com is not None:
+            object.__setattr__(self, "inertia_com", frozen_array(self.inertia_com, (3, 3), name="inertia_com"))
+
     @classmethod
     def from_moments(cls, moments, *, density=None, mass=None, unit=None, pose=None, path=None):
         """Turn raw integrals into mass properties, exactly, then round once.
@@ -256,7 +261,7 @@ class MassProperties:
         m_n, m_d = float(moments.det_sum).as_integer_ratio()                    # a NaN or infinite sum raises here
         if moments.det_sum <= 0 or moments.det_sum <= e0:
             raise MeshGeometryError("the solid has zero volume (flat or degenerate: the faces enclose nothing)",
-                                    path=path, fix="check the export; a surface needs --shell THICKNESS")
+                                    path=path, fix="check the export; a surface needs {shell=THICKNESS}")
         volume_n, volume_d = m_n * unit_n ** 3, 6 * m_d * unit_d ** 3           # volume = det_sum / 6 · length³
         rho = ((*_ratio(density if density is not None else 1), 0) if mass is None
                else _density_of_mass(mass, volume_n, volume_d, s))
@@ -277,7 +282,7 @@ class MassProperties:
         values = (volume, total, _quotient(*rho), surface_area)
         if values[0] == 0.0:
             raise MeshGeometryError("the results underflow double precision", path=path,
-                                    fix="give the mesh in a smaller length unit (e.g. --unit) or rescale it")
+                                    fix="give the mesh in a smaller length unit (e.g. {unit}) or rescale it")
         bounds = ErrorBounds(volume=error_volume, mass=error_mass, center_of_mass=error_com,
                              inertia_com=error_inertia)
         if pose is not None and unit is not None:
@@ -323,14 +328,14 @@ class MassProperties:
     # Cached (the value is immutable; replace() makes a new one): a report asks for them more than once.
     @cached_property
     def center_of_mass_global(self):
-        """ndarray (3,): ``A c' + t``."""
-        return self.pose.apply(self.center_of_mass)
+        """ndarray (3,): ``A c' + t`` (read-only)."""
+        return frozen_array(self.pose.apply(self.center_of_mass))
 
     @cached_property
     def inertia_com_global(self):
-        """ndarray (3, 3): ``A J_G' Aᵀ``, about the center of mass, global axes."""
+        """ndarray (3, 3): ``A J_G' Aᵀ``, about the center of mass, global axes (read-only)."""
         self._need_inertia()
-        return rotate_inertia(self.inertia_com, self.pose.rotation)
+        return frozen_array(rotate_inertia(self.inertia_com, self.pose.rotation))
 
     @property
     def inertia_origin(self):

@@ -18,3 +18,13 @@ def random_rotation(seed):
 def runner():
     from click.testing import CliRunner
     return CliRunner()
+
+
+@pytest.fixture
+def box(tmp_path):
+    """A 1 × 2 × 3 box as a binary STL; its path."""
+    from massprops.io.stl import write_binary
+    from massprops.validation import solids
+    path = tmp_path / "box.stl"
+    write_binary(path, solids.box((1.0, 2.0, 3.0)).triangles)
+    return str(path)

@@ -159,14 +159,16 @@ def test_stdout_report_when_no_output_file(runner, corpus):
 
 
 def _count_runs(monkeypatch):
+    """The files each run computes (their records as they arrive from the workers)."""
+    from massprops.batch.report import ReportWriter
     computed = []
-    real = batch.run_one
+    real = ReportWriter.add
 
-    def counting(path, *args, **kwargs):
-        computed.append(path)
-        return real(path, *args, **kwargs)
+    def counting(self, outcome, *args, **kwargs):
+        computed.append(outcome.file)
+        return real(self, outcome, *args, **kwargs)
 
-    monkeypatch.setattr(batch, "run_one", counting)
+    monkeypatch.setattr(ReportWriter, "add", counting)
     return computed
 
 
@@ -244,20 +246,25 @@ def test_local_dask_cluster_gives_the_process_pool_report(runner, corpus, tmp_pa
     assert open(dask, encoding="utf-8").readline().rstrip("\n") == SPEC_HEADER
 
 
-def test_a_crashed_worker_gives_error_rows_not_a_crash(tmp_path, monkeypatch):
-    paths = [str(tmp_path / f"t{k}.stl") for k in range(4)]
+def test_a_crashed_worker_costs_only_its_file(tmp_path, monkeypatch):
+    paths = [str(tmp_path / f"t{k}.stl") for k in range(6)]
     for k, path in enumerate(paths):
         write_binary(path, _tilted(solids.tetrahedron(), k).triangles)
+    real = batch.run_one
 
-    def die(*args, **kwargs):
-        os._exit(3)
+    def die_on_the_third(path, *args, **kwargs):
+        if path == paths[2]:
+            os._exit(3)
+        return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(batch, "run_chunk", die)  # the forked workers inherit it
+    monkeypatch.setattr(batch, "run_one", die_on_the_third)  # the forked workers inherit it
     out = str(tmp_path / "r.csv")
     summary = batch.run_batch(paths, output=out, jobs=2)
-    assert (summary.ok, summary.failed) == (0, 4)
+    assert (summary.ok, summary.failed) == (5, 1)
     rows = _read_report(out)[1]
-    assert [r["file"] for r in rows] == paths and all("worker failed" in r["message"] for r in rows)
+    assert [r["file"] for r in rows] == paths
+    assert [r["status"] for r in rows] == ["ok", "ok", "error", "ok", "ok", "ok"]
+    assert "worker process died" in rows[2]["message"] and "exit status 3" in rows[2]["message"]
 
 
 def test_expand_inputs_directories_globs_and_lists(tmp_path):
@@ -286,7 +293,7 @@ def test_usage_and_option_errors(runner, corpus, tmp_path, monkeypatch):
     result = _invoke(runner, "@" + str(tmp_path / "missing.txt"), "-o", tmp_path / "r.csv")
     assert result.exit_code == 2 and "cannot read the list" in result.stderr
     result = _invoke(runner, some, "-o", tmp_path / "r.csv", "--density", "-1")
-    assert result.exit_code == 1 and "density" in result.stderr and "Traceback" not in result.output
+    assert result.exit_code == 2 and "--density" in result.stderr and "Traceback" not in result.output
     assert not (tmp_path / "r.csv").exists()
     result = _invoke(runner, some, "-o", tmp_path / "no_such_folder" / "r.csv")
     assert result.exit_code == 1 and "cannot write the report" in result.stderr

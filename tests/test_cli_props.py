@@ -163,8 +163,8 @@ def test_good_and_bad_together(runner, tmp_path, bracket):
 
 def test_bad_rotation_option(runner, bracket):
     result = runner.invoke(main, ["props", str(bracket), "--rotate", "matrix:1,0,0,0,1,0,0,0,2"])
-    assert result.exit_code == 1
-    assert result.stderr.startswith("error: ") and "orthonormal" in result.stderr
+    assert result.exit_code == 2                  # a usage error, before any file is read
+    assert "--rotate" in result.stderr and "orthonormal" in result.stderr
 
 
 def test_unknown_only_quantity_is_a_usage_error(runner, bracket):

@@ -6,19 +6,10 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops.validation import solids
 from massprops.frames import Pose
-from massprops.io.stl import write_binary
 
 # A 1 × 2 × 3 box, density 1: mass 6, J' = diag(6.5, 5, 2.5) exactly.
 BOX_INERTIA = np.diag([6.5, 5.0, 2.5])
-
-
-@pytest.fixture
-def box(tmp_path):
-    path = tmp_path / "box.stl"
-    write_binary(path, solids.box((1.0, 2.0, 3.0)).triangles)
-    return str(path)
 
 
 def spin(runner, *args):
@@ -120,12 +111,13 @@ def test_missing_omega_is_a_usage_error(runner, box):
 
 @pytest.mark.parametrize("args, fragment", [
     (["--duration", "1", "--rotate", "matrix:1,0,0,0,1,0,0,0,2"], "not orthonormal"),
-    (["--duration", "1", "--density", "-3"], "density must be a positive"),
+    (["--duration", "1", "--density", "-3"], "must be positive"),
+    (["--duration", "nan"], "not a finite number"),
 ])
-def test_bad_values_exit_1_with_one_line(runner, box, args, fragment):
+def test_bad_option_values_are_usage_errors(runner, box, args, fragment):
     result = spin(runner, box, "--omega", 0, 0, 1, *args)
-    assert result.exit_code == 1
-    assert result.output.splitlines()[-1].startswith("error: ") and fragment in result.output
+    assert result.exit_code == 2
+    assert result.output.splitlines()[-1].startswith("Error: Invalid value") and fragment in result.output
     assert "Traceback" not in result.output
 
 

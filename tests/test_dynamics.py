@@ -210,7 +210,7 @@ def test_polhode_regimes_and_period():
 
 @pytest.mark.parametrize("kwargs, fragment", [
     ({"method": "Euler"}, "unknown method"),
-    ({"method": "RK45", "steps": 10}, "--steps applies"),
+    ({"method": "RK45", "steps": 10}, "steps applies"),
     ({"torque_frame": "inertial", "torque": (1, 0, 0)}, "unknown torque frame"),
 ])
 def test_simulate_refuses_bad_options(kwargs, fragment):

@@ -479,14 +479,14 @@ def _refused(runner, directory, keys):
 
 
 @pytest.mark.parametrize("keys, fragment", [
-    ("positions = [[1, 2, 3], [4, 5]]", "positions entry 1 is not 3 numbers"),
-    ("positions = [[1, 2, 3], [4, 5, true]]", "positions entry 1 is not 3 numbers"),
+    ("positions = [[1, 2, 3], [4, 5]]", "positions entry 1 is not 3 finite numbers"),
+    ("positions = [[1, 2, 3], [4, 5, true]]", "positions entry 1 is not 3 finite numbers"),
     ("positions = [[1, 2, 3]]\nquaternions = [[1, 0, 0, 0], [1, 0, 0, 0]]", "quaternions has 2 entries but"),
     ("positions = [[1, 2, 3]]\nquaternions = [[0, 0, 0, 0]]", "entry 0: a quaternion of zero length"),
     ("quaternions = [[1, 0, 0, 0]]", "quaternions needs positions"),
     ("positions = [[1, 2, 3]]\nposition = [1, 2, 3]", "not both"),
     ('positions = [[1, 2, 3]]\ninstances = "x.csv"', "not both"),
-    ('instances = "missing.csv"', "cannot read the instances file"),
+    ('instances = "missing.csv"', "no such file"),
 ])
 def test_bad_inline_instances_say_what(tmp_path, runner, keys, fragment):
     error = _refused(runner, tmp_path, keys)

@@ -10,11 +10,13 @@ is what tells an unchanged file from a changed one on ``--resume``.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
+from contextlib import contextmanager
 
 from .. import report
-from ..errors import OptionError
+from ..errors import OutputError
 
 __all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_error"]
 
@@ -51,28 +53,33 @@ def file_stat(path):
     return [st.st_size, st.st_mtime_ns]
 
 
-def _complete_lines(path):
-    """The report's lines, without a last line cut short by an interruption."""
-    with open(path, encoding="utf-8", newline="") as f:
+def _complete_text(path):
+    """The report's text up to its last line feed: a record cut short by an interruption is left out."""
+    with open(path, encoding="utf-8", errors="surrogateescape", newline="") as f:
         text = f.read()
-    return [line + "\n" for line in text.split("\n")[:-1]]
+    return text[:text.rfind("\n") + 1]
 
 
 def _records_in(output, output_format):
     """``{file: line}`` of an existing report (empty if absent or not a batch report)."""
     try:
-        lines = _complete_lines(output)
-    except (OSError, UnicodeDecodeError):
+        text = _complete_text(output)
+    except OSError:
         return {}
     records = {}
     if output_format == "csv":
-        if not lines or lines[0].rstrip("\r\n").split(",") != list(report.CSV_COLUMNS):
-            return {}
-        for row in csv.DictReader(lines):
-            if None not in row.values() and None not in row and row["status"] in ("ok", "error"):
-                records[row["file"]] = csv_line(row)
+        rows = csv.reader(io.StringIO(text, newline=""))
+        try:
+            if next(rows, None) != list(report.CSV_COLUMNS):
+                return {}
+            for values in rows:
+                if len(values) == len(report.CSV_COLUMNS) and values[1] in ("ok", "error"):
+                    row = dict(zip(report.CSV_COLUMNS, values))
+                    records[row["file"]] = csv_line(row)
+        except csv.Error:
+            pass                    # a record cut inside a quoted name: the rows before it stand
         return records
-    for line in lines:
+    for line in text.splitlines(keepends=True):
         try:
             obj = json.loads(line)
             records[obj["file"]] = line
@@ -82,12 +89,12 @@ def _records_in(output, output_format):
 
 
 def _state_in(output, header):
-    """``{file: [size, mtime_ns]}`` from the state file, or None if it was made with other settings."""
+    """``{file: (stat, retry)}`` from the state file, or None if it was made with other settings."""
     try:
-        lines = _complete_lines(state_path(output))
+        lines = _complete_text(state_path(output)).splitlines()
         if not lines or json.loads(lines[0]) != header:
             return None
-        return {e["file"]: e["stat"] for e in map(json.loads, lines[1:])}
+        return {e["file"]: (e["stat"], e.get("retry", False)) for e in map(json.loads, lines[1:])}
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -102,7 +109,8 @@ def plan(files, output, output_format, header, resume):
     kept, todo = {}, []
     for path in files:
         stat = file_stat(path)
-        if stat is not None and path in records and state.get(path) == stat:
+        # a worker failure or a time-out was the run's fault, not the file's: compute it again
+        if stat is not None and path in records and state.get(path) == (stat, False):
             kept[path] = (records[path], stat)
         else:
             todo.append(path)
@@ -110,55 +118,79 @@ def plan(files, output, output_format, header, resume):
 
 
 class ReportWriter:
-    """Appends records as they come; :meth:`finish` rewrites the report sorted by path."""
+    """Appends records as they come; :meth:`finish` rewrites the report sorted by path.
+
+    Names with undecodable bytes (surrogate escapes) are written as those
+    bytes; a write that fails (a full disk) is an :class:`OutputError`.
+    """
 
     def __init__(self, output, output_format, header, kept):
         self.output, self.head = output, (report.to_csv([]) if output_format == "csv" else "")
         self.lines = {f: line for f, (line, _) in kept.items()}
         self.report_file = self.state_file = None
-        if output is not None:
-            try:
-                self.report_file = open(output, "w", encoding="utf-8", newline="")
-                self.state_file = open(state_path(output), "w", encoding="utf-8")
-            except OSError as exc:
-                self.close()
-                raise OptionError(f"cannot write the report ({exc.strerror or exc})", path=output,
-                                  fix="give a path in an existing, writable folder") from None
+        if output is None:
+            return
+        with self._writing():
+            self.report_file = _open_for_writing(output)
+            self.state_file = _open_for_writing(state_path(output))
             self.report_file.write(self.head + "".join(self.lines.values()))
             self.state_file.write(json.dumps(header) + "\n")
             self.state_file.writelines(json.dumps({"file": f, "stat": s}) + "\n" for f, (_, s) in kept.items())
             self._flush()
 
+    @contextmanager
+    def _writing(self, path=None):
+        try:
+            yield
+        except OSError as exc:
+            self.close(quietly=True)
+            raise OutputError(f"cannot write the report ({exc.strerror or exc})", path=path or self.output,
+                              fix="free space, or give a path in an existing, writable folder") from None
+
     def _flush(self):
         self.report_file.flush()
         self.state_file.flush()
 
-    def add(self, outcome, stat):
+    def add(self, outcome, stat, *, retry=False):
         self.lines[outcome.file] = outcome.line
-        if self.report_file is not None:
+        if self.report_file is None:
+            return
+        with self._writing():
             # the row first: a row without its state entry is merely recomputed on resume
             self.report_file.write(outcome.line)
             self.report_file.flush()
             if stat is not None:
-                self.state_file.write(json.dumps({"file": outcome.file, "stat": stat}) + "\n")
+                entry = {"file": outcome.file, "stat": stat, **({"retry": True} if retry else {})}
+                self.state_file.write(json.dumps(entry) + "\n")
             self._flush()
 
-    def close(self):
+    def close(self, *, quietly=False):
         for f in (self.report_file, self.state_file):
             if f is not None:
-                f.close()
+                try:
+                    f.close()
+                except OSError:
+                    if not quietly:
+                        raise
+        self.report_file = self.state_file = None
 
     def finish(self):
         """Close, and write the sorted report; returns its text when there is no output file."""
-        self.close()
+        with self._writing():
+            self.close()
         text = self.head + "".join(self.lines[f] for f in sorted(self.lines))
         if self.output is None:
             return text
         partial = self.output + ".sorting"
-        with open(partial, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-        os.replace(partial, self.output)
+        with self._writing(partial):
+            with _open_for_writing(partial) as f:
+                f.write(text)
+            os.replace(partial, self.output)
         return None
+
+
+def _open_for_writing(path):
+    return open(path, "w", encoding="utf-8", errors="surrogateescape", newline="")
 
 
 def is_error(line, output_format):

@@ -9,30 +9,36 @@ Records are appended to the report as files finish, so an interrupted run
 keeps its work; the finished report is rewritten sorted by path, and a state
 file next to it lets ``resume`` skip unchanged files (:mod:`massprops.batch.report`).
 
-Work runs in this process (one job), in a process pool, or on a Dask cluster
-(``scheduler="local"`` or ``"tcp://HOST:PORT"``); every path calls the same
-:func:`run_chunk`, so the records are identical.
+Work runs in local worker processes (:mod:`massprops.batch.workers`: a time
+limit per file, a dead worker costs only its file) or on a Dask cluster
+(``scheduler="local"`` or ``"tcp://HOST:PORT"``); both call the same
+:func:`run_one`, so the records are identical.
+
+File names are kept as the file system gives them: bytes that are not UTF-8
+are surrogate escapes (Python's ``os.fsdecode``), written to a CSV report as
+the original bytes and to JSON as ``\\udcXX`` escapes, so ``os.fsencode``
+of a name read back gives the file's name.
 """
 
 from __future__ import annotations
 
-import glob
 import os
-import re
-import signal
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from ..errors import MassPropsError, MeshReadError, OptionError
+from ..errors import MassPropsError, MeshReadError, OptionError, render_options
+from .inputs import expand_inputs
 from .report import ReportWriter, file_stat, is_error, plan, record, state_path
+from .workers import TIMED_OUT, WORKER_FAILED, run_workers
 from ..frames import Pose
 
-__all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "expand_inputs", "run_one", "run_chunk",
-           "run_batch", "check_settings", "state_path", "default_jobs"]
+__all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "DEFAULT_TIMEOUT", "expand_inputs", "run_one",
+           "run_chunk", "run_batch", "check_settings", "state_path", "default_jobs"]
 
 FORMATS = ("csv", "jsonl")
-_GLOB_CHARS = re.compile(r"[*?\[]")
+RETRIED = (WORKER_FAILED, TIMED_OUT)
+DEFAULT_TIMEOUT = 300.0
 _STATE_VERSION = 1
 
 
@@ -48,26 +54,37 @@ class Settings:
     density_field: str | None = None
     density_map: dict | None = None
     shell: float | None = None
+    max_unpacked: int | None = None
     self_intersection: bool | None = None
+    option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
 
     def key(self):
         """A JSON-able description; a resumed report is reused only if this matches."""
         pose = self.pose or Pose()
         return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
                 "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
-                "self_intersection": self.self_intersection,
+                "max_unpacked": self.max_unpacked, "self_intersection": self.self_intersection,
                 "rotation": [repr(float(x)) for x in pose.rotation.ravel()],
                 "translation": [repr(float(x)) for x in pose.translation]}
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """One file's record: ``line`` is its text in the report (CSV row or JSON line, with newline)."""
+    """One file's record: ``line`` is its text in the report (CSV row or JSON line, with newline).
+
+    ``kind`` is ``"ok"``, ``"error"`` (the file's fault), or ``"worker"`` /
+    ``"timeout"``: the run's, so ``--resume`` computes such a file again.
+    """
 
     file: str
     status: str
     message: str
     line: str
+    kind: str = "ok"
+
+    @property
+    def retry(self):
+        return self.kind in RETRIED
 
 
 @dataclass(frozen=True)
@@ -96,85 +113,6 @@ def default_jobs():
         return os.cpu_count() or 1
 
 
-# ---------------------------------------------------------------- inputs
-
-def _mesh_files_in(directory, recursive, skipped=None):
-    from ..io import EXTENSIONS
-    found = []
-    for root, dirs, names in os.walk(directory):
-        dirs.sort()
-        for name in sorted(names):
-            extension = os.path.splitext(name)[1].lower()
-            if extension in EXTENSIONS:
-                found.append(os.path.join(root, name))
-            elif skipped is not None:
-                skipped[extension or "(none)"] = skipped.get(extension or "(none)", 0) + 1
-        if not recursive:
-            break
-    return found
-
-
-def _read_list(list_path):
-    """Paths listed one per line in ``list_path`` (blank lines and ``#`` comments skipped)."""
-    try:
-        with open(list_path, encoding="utf-8") as f:
-            lines = f.read().splitlines()
-    except OSError as exc:
-        raise MeshReadError(f"cannot read the list of paths ({exc.strerror or exc})", path=list_path,
-                            fix="give an existing text file with one path per line after @") from None
-    folder = os.path.dirname(list_path)
-    # a relative path in a list means relative to the list, so a list travels with its folder
-    return [os.path.join(folder, s) for s in (line.strip() for line in lines) if s and not s.startswith("#")]
-
-
-def expand_inputs(paths, *, recursive=False, skipped=None):
-    """The mesh files that ``paths`` name, in order, each once.
-
-    Parameters
-    ----------
-    paths : iterable of str
-        Files; directories (their mesh files, by registered extension;
-        sub-directories too with ``recursive``); glob patterns (``**`` with
-        ``recursive``); ``@LIST`` for a text file of such paths, one a line,
-        relative to the list's folder.  A name that matches nothing, or a
-        folder with no mesh files, is kept, so the report says what is wrong.
-    skipped : dict, optional
-        Filled with ``{extension: count}`` of the files in the directories
-        walked that are not in a format massprops reads.
-
-    Raises
-    ------
-    MeshReadError
-        An ``@LIST`` file cannot be read.
-    """
-    files, seen = [], set()
-
-    def add(path):
-        path = os.path.normpath(path)
-        if path not in seen:
-            seen.add(path)
-            files.append(path)
-
-    def expand(path, depth=0):
-        if path.startswith("@") and depth < 8:
-            for listed in _read_list(path[1:]):
-                expand(listed, depth + 1)
-        elif os.path.isdir(path):
-            # a named folder with no mesh files still gets its row, so the report shows the mistake
-            for found in _mesh_files_in(path, recursive, skipped) or [path]:
-                add(found)
-        elif _GLOB_CHARS.search(path) and not os.path.exists(path):
-            matches = sorted(glob.glob(path, recursive=recursive))
-            for match in matches or [path]:
-                expand(match, depth + 1) if os.path.isdir(match) else add(match)
-        else:
-            add(path)
-
-    for path in paths:
-        expand(os.fspath(path))
-    return files
-
-
 # ---------------------------------------------------------------- one file
 
 def _one_line(text):
@@ -182,12 +120,14 @@ def _one_line(text):
     return " ".join(filter(None, (part.strip() for part in text.splitlines())))
 
 
-def error_message(exc):
+def error_message(exc, style="python"):
     """The report's message for a failed file: what is wrong and the fix, without the path."""
     if isinstance(exc, MassPropsError):
-        return _one_line(exc.problem + (f" — {exc.fix}" if exc.fix else ""))
+        return _one_line(exc.render(style, with_path=False))
     if isinstance(exc, MemoryError):
         return "not enough memory to process this mesh — free memory or split the file"
+    if isinstance(exc, SystemExit):
+        return _one_line(f"a reader tried to end the process (exit status {exc.code}) — please report it")
     return _one_line(f"internal error ({type(exc).__name__}: {exc}) — please report it; "
                      "rerun `massprops props FILE` with MASSPROPS_DEBUG=1 for details")
 
@@ -199,21 +139,33 @@ def run_one(path, settings=Settings(), output_format="csv"):
     try:
         if os.path.isdir(path):
             raise MeshReadError("is a directory holding no mesh files", path=path,
-                                fix="pass --recursive to search its sub-directories, or name the files")
+                                fix="pass {recursive} to search its sub-directories, or name the files")
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
                                  density_map=settings.density_map, shell=settings.shell,
-                                 self_intersection=settings.self_intersection)
+                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection)
         obj = report.result_dict(result)
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
-    except Exception as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
-        message = error_message(exc)
-        return Outcome(path, "error", message, record({"file": path}, "error", message, output_format))
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
+        message = error_message(exc, settings.option_style)
+        return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), "error")
 
 
 def run_chunk(paths, settings=Settings(), output_format="csv"):
-    """:func:`run_one` over ``paths``: the unit of work sent to a process or a Dask worker."""
+    """:func:`run_one` over ``paths``: the unit of work sent to a Dask worker."""
     return [run_one(p, settings, output_format) for p in paths]
+
+
+def failed_outcome(path, kind, detail, settings, output_format, timeout=None):
+    """The record of a file the run could not finish: its worker died twice, or it ran out of time."""
+    if kind == TIMED_OUT:
+        message = (f"timed out after {timeout:g} s — rerun with {{resume}} and a larger {{timeout=SECONDS}} "
+                   "(0 for none), or look at it with `massprops props FILE`")
+    else:
+        message = (f"the worker process died computing this file, each time it was tried ({detail}) — rerun "
+                   "with {resume} to try again; `massprops props FILE` shows what fails")
+    message = _one_line(render_options(message, settings.option_style))
+    return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), kind)
 
 
 def check_settings(settings):
@@ -228,54 +180,50 @@ def check_settings(settings):
 # ---------------------------------------------------------------- running
 
 def _chunks(files, workers):
-    # a few chunks per worker keep them all busy to the end; chunks amortise the per-task IPC cost
+    # a few chunks per worker keep them all busy to the end; chunks amortise the per-task cost of Dask
     size = max(1, min(16, len(files) // (4 * max(1, workers or 1))))
     return [tuple(files[i:i + size]) for i in range(0, len(files), size)]
 
 
-def _failed_chunk(chunk, exc, output_format):
-    message = _one_line(f"the worker failed ({type(exc).__name__}: {exc}) — rerun with --resume; "
-                        "if it fails again, run `massprops props` on the file")
-    return [Outcome(p, "error", message, record({"file": p}, "error", message, output_format)) for p in chunk]
+def _run_local(todo, settings, output_format, jobs, timeout):
+    """Outcomes from local worker processes (:mod:`massprops.batch.workers`), one list per file."""
+    from functools import partial
+    compute = partial(run_one, settings=settings, output_format=output_format)
+    failed = partial(_failed_locally, settings=settings, output_format=output_format, timeout=timeout)
+    threads = max(1, default_jobs() // jobs)        # cores shared out: no oversubscription by kernel threads
+    for outcome in run_workers(todo, compute, failed, jobs=jobs, timeout=timeout, threads=threads):
+        yield [outcome]
 
 
-def _collect(futures, as_completed, output_format):
-    """Yield each finished chunk's outcomes; a crashed worker turns its chunk into error records."""
-    for future in as_completed(list(futures)):
-        chunk = futures[future]
-        try:
-            yield future.result()
-        except Exception as exc:  # noqa: BLE001 - a dead worker must not end the run
-            yield _failed_chunk(chunk, exc, output_format)
-
-
-def _init_worker(jobs):
-    # Ctrl-C reaches the whole process group: the parent alone handles it, keeping the workers quiet
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    # the cores are shared out between the workers, so the integration's threads do not oversubscribe them
-    os.environ.setdefault("MASSPROPS_THREADS", str(max(1, default_jobs() // jobs)))
-
-
-def _run_pool(chunks, settings, output_format, jobs):
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=(jobs,))
-    try:
-        futures = {pool.submit(run_chunk, c, settings, output_format): c for c in chunks}
-        yield from _collect(futures, as_completed, output_format)
-    except BaseException:
-        # interrupted: what the workers are doing now would not be written, so stop them at once
-        for process in (getattr(pool, "_processes", None) or {}).values():
-            process.terminate()
-        raise
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+def _failed_locally(path, kind, detail, *, settings, output_format, timeout):
+    return failed_outcome(path, kind, detail, settings, output_format, timeout)
 
 
 def _run_dask(todo, settings, output_format, client):
-    chunks = _chunks(todo, sum(client.nthreads().values()))
+    """Outcomes from Dask, chunk by chunk; a chunk whose worker died is split into files, each tried alone.
+
+    So a file that kills its worker (Dask retries it on other workers, then
+    gives up) costs only itself, not the innocent files of its chunk.
+    """
     from dask.distributed import as_completed
+    chunks = _chunks(todo, sum(client.nthreads().values()))
     submitted = client.map(run_chunk, chunks, settings=settings, output_format=output_format, pure=False)
-    yield from _collect(dict(zip(submitted, chunks)), as_completed, output_format)
+    futures = dict(zip(submitted, chunks))
+    finished = as_completed(list(futures))
+    for future in finished:
+        chunk = futures.pop(future)
+        try:
+            yield future.result()
+        except Exception as exc:  # noqa: BLE001 - a dead worker must not end the run
+            if len(chunk) == 1:
+                detail = _one_line(f"{type(exc).__name__}: {exc}")
+                yield [failed_outcome(chunk[0], WORKER_FAILED, detail, settings, output_format)]
+                continue
+            for path in chunk:
+                alone = client.submit(run_chunk, (path,), settings=settings, output_format=output_format,
+                                      pure=False)
+                futures[alone] = (path,)
+                finished.add(alone)
 
 
 @contextmanager
@@ -297,7 +245,7 @@ def dask_client(scheduler, *, workers=None, processes=True):
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
-        raise OptionError("--scheduler needs dask.distributed, which is not installed",
+        raise OptionError("{scheduler} needs dask.distributed, which is not installed",
                           fix='pip install "massprops[dask]"') from None
     if scheduler == "local":
         import logging
@@ -315,22 +263,19 @@ def dask_client(scheduler, *, workers=None, processes=True):
         yield client
 
 
-def _outcomes(todo, settings, output_format, jobs, scheduler, client):
+def _outcomes(todo, settings, output_format, jobs, scheduler, client, timeout):
     """Yield lists of outcomes as work finishes, on the backend asked for."""
     if client is not None:
         yield from _run_dask(todo, settings, output_format, client)
     elif scheduler is not None:
         with dask_client(scheduler, workers=jobs) as client:
             yield from _run_dask(todo, settings, output_format, client)
-    elif jobs <= 1 or len(todo) <= 1:
-        for path in todo:
-            yield run_chunk((path,), settings, output_format)
-    else:
-        yield from _run_pool(_chunks(todo, jobs), settings, output_format, min(jobs, len(todo)))
+    elif todo:
+        yield from _run_local(todo, settings, output_format, min(jobs, len(todo)), timeout)
 
 
 def run_batch(files, settings=Settings(), *, output=None, output_format="csv", jobs=None, scheduler=None,
-              client=None, resume=False, on_start=None, on_outcome=None):
+              client=None, resume=False, timeout=DEFAULT_TIMEOUT, on_start=None, on_outcome=None):
     """Compute a record for every file and write the report, sorted by path.
 
     Parameters
@@ -345,15 +290,20 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
         ``BatchSummary.text``.
     output_format : {"csv", "jsonl"}
     jobs : int, optional
-        Worker processes (default: all cores); 1 runs in this process.  With a
-        local Dask cluster, its number of workers.
+        Worker processes (default: all cores).  Each takes one file at a time;
+        a worker that dies costs only its file (retried once in a fresh
+        worker).  With a local Dask cluster, its number of workers.
     scheduler : str, optional
         ``"local"`` or a Dask scheduler address ``tcp://HOST:PORT``.
     client : dask.distributed.Client, optional
         Run on this client instead (not closed here).
     resume : bool
         Reuse the records of ``output`` whose file has the same size and
-        modification time as when it was computed, with the same settings.
+        modification time as when it was computed, with the same settings;
+        files whose worker died or that timed out are computed again.
+    timeout : float or None
+        Seconds one file may take in a local worker (default 300); None for
+        no limit.  Dask runs are bounded by the cluster's own settings.
     on_start, on_outcome : callable, optional
         Called with the number of files to compute once the resume plan is
         made, and with each :class:`Outcome` as it arrives (progress display).
@@ -366,6 +316,8 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
         raise OptionError(f"unknown report format {output_format!r}", fix=f"pick one of {', '.join(FORMATS)}")
     if resume and output is None:
         raise OptionError("resuming needs the report file", fix="give the report path with -o")
+    if timeout is not None and not (isinstance(timeout, (int, float)) and timeout > 0):
+        raise OptionError(f"{{timeout}} must be a positive number of seconds or None, got {timeout!r}")
     start = time.perf_counter()
     header = {"massprops_batch": _STATE_VERSION, "format": output_format, "settings": settings.key()}
     kept, todo, notes = plan(files, output, output_format, header, resume)
@@ -373,15 +325,17 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     status = {}
     if on_start is not None:
         on_start(len(todo))
+    stats = {path: file_stat(path) for path in todo}      # before the work reads them: a later change shows
+    arriving = _outcomes(todo, settings, output_format, jobs or default_jobs(), scheduler, client, timeout)
     try:
-        stats = {path: file_stat(path) for path in todo}  # before the work reads them: a later change shows
-        for outcomes in _outcomes(todo, settings, output_format, jobs or default_jobs(), scheduler, client):
+        for outcomes in arriving:
             for outcome in outcomes:
-                writer.add(outcome, stats[outcome.file])
+                writer.add(outcome, stats[outcome.file], retry=outcome.retry)
                 status[outcome.file] = (outcome.status, outcome.message)
                 if on_outcome is not None:
                     on_outcome(outcome)
     finally:
+        arriving.close()                                  # stops the workers now, whatever ended the loop
         writer.close()
     text = writer.finish()
     failures = tuple(sorted((f, m) for f, (s, m) in status.items() if s != "ok"))

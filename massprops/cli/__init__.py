@@ -7,8 +7,12 @@ package imports click, prints, or exits.
 
 from __future__ import annotations
 
+import errno
 import importlib
 import importlib.util
+import os
+import sys
+import warnings
 
 import click
 
@@ -22,11 +26,29 @@ COMMANDS = {
     "check": ("check", "check"),
     "accuracy": ("accuracy", "accuracy"),
     "spin": ("spin", "spin"),
+    "robot": ("robot", "robot"),
 }
 
 
 class LazyGroup(click.Group):
-    """A click group that imports a subcommand's module on first use."""
+    """A click group that imports a subcommand's module on first use.
+
+    It is also the last edge: output that cannot be written (a full disk, a
+    closed pipe) ends the command with one line and exit 1, not a traceback.
+    """
+
+    def invoke(self, ctx):
+        try:
+            try:
+                return super().invoke(ctx)
+            finally:
+                sys.stdout.flush()
+        except OSError as exc:
+            from ..errors import MassPropsError
+            if isinstance(exc, MassPropsError):
+                raise
+            _output_failed(exc)
+            ctx.exit(1)
 
     def list_commands(self, ctx):
         return [name for name, (module, _) in COMMANDS.items() if importlib.util.find_spec(
@@ -44,6 +66,19 @@ class LazyGroup(click.Group):
             raise
 
 
+def _output_failed(exc):
+    """Say that writing failed (unless the reader went away), and send what is still buffered nowhere."""
+    if exc.errno != errno.EPIPE:
+        where = f"{exc.filename}: " if exc.filename else ""
+        click.echo(f"error: {where}cannot write the output ({exc.strerror or exc}) — free space or write "
+                   "elsewhere", err=True)
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())          # the interpreter's last flush then succeeds
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="massprops")
 def main():
@@ -52,3 +87,6 @@ def main():
     Inertia tensors are J = ∫ (sᵀs I − s sᵀ) dm (off-diagonals are the tensor's
     own, J_xy = −∫ x y dm); a pose maps local x' to global x = A x' + t.
     """
+    # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
+    if not os.environ.get("MASSPROPS_DEBUG"):
+        warnings.filterwarnings("ignore", category=RuntimeWarning)

@@ -74,22 +74,28 @@ def _summary_line(summary):
 @click.option("--scheduler", metavar="local|tcp://HOST:PORT",
               help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar, failure list or summary line.")
+@click.option("--timeout", type=options.NON_NEGATIVE, default=300.0, show_default=True, metavar="SECONDS",
+              help="Time one file may take in a local worker before it is stopped and reported (0: no limit; "
+                   "--resume computes timed-out files again).")
 @options.material_options
 @options.pose_options
 @options.cell_options
 @options.repair_option
 @options.self_intersection_option
-def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, density, total_mass, unit,
-          rotate, translate, density_field, density_map, shell, repair, self_intersection):
+@options.unpack_option
+def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, density, total_mass,
+          unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
     a glob such as 'parts/**/*.stl', or @LIST, a text file of paths one a line.
-    CSV columns are the SPEC's (inertia about the center of mass, local axes;
-    Ixy, Ixz, Iyz are the tensor's own elements); --format jsonl writes the full
-    `props` objects.  A file that fails gets status=error and its message, and the
-    run goes on.  Exit 0 if every file is ok, 1 if any failed (the report is
-    still complete).
+    One file under several names (./a.stl, dir/../a.stl, a link to it) is one
+    row, under the first name.  CSV columns are the SPEC's (inertia about the
+    center of mass, local axes; Ixy, Ixz, Iyz are the tensor's own elements);
+    --format jsonl writes the full `props` objects.  A file that fails gets
+    status=error and its message, and the run goes on; a worker that dies costs
+    only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
+    (the report is still complete).
     """
     from ..batch import run as batch_lib
     from ..errors import MassPropsError
@@ -98,21 +104,25 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
         output = None
     if resume and output is None:
         raise click.UsageError("--resume needs the report file: give it with -o")
-    skipped = {}
+    duplicates, skipped = [], {}
     try:
-        files = batch_lib.expand_inputs(paths, recursive=recursive, skipped=skipped)
+        files = batch_lib.expand_inputs(paths, recursive=recursive, duplicates=duplicates, skipped=skipped)
     except MassPropsError as exc:
-        raise click.BadParameter(str(exc), param_hint="PATH") from None
-    pose = options.guarded(options.pose_from_options, rotate, translate)
-    settings = pose and batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
-                                           density_field=density_field, density_map=density_map, shell=shell,
-                                           self_intersection=self_intersection)
-    if settings is None or not options.guarded(batch_lib.check_settings, settings):
-        raise SystemExit(1)
-    summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet)
+        raise click.BadParameter(exc.render("cli"), param_hint="PATH") from None
+    pose = options.pose_from_options(rotate, translate)
+    settings = batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
+                                  density_field=density_field, density_map=density_map, shell=shell,
+                                  max_unpacked=max_unpacked, self_intersection=self_intersection,
+                                  option_style="cli")
+    summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet,
+                   timeout or None)
     if summary.text is not None:
-        click.echo(summary.text, nl=False)
+        options.echo(summary.text, nl=False)
     if not quiet:
+        if duplicates:
+            name, kept = duplicates[0]
+            click.echo(f"note: {len(duplicates)} name(s) of files already listed, one row each "
+                       f"(e.g. {name} is {kept})", err=True)
         for note in summary.notes:
             click.echo(f"note: {note}", err=True)
         _report_failures(summary)
@@ -120,13 +130,13 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     options.exit_with(summary.failed)
 
 
-def _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet):
+def _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet, timeout):
     """run_batch with a progress bar; Ctrl-C keeps the rows done and says how to go on."""
     progress = _Progress(quiet)
     try:
         summary = options.guarded(batch_lib.run_batch, files, settings, output=output, output_format=output_format,
-                                  jobs=jobs, scheduler=scheduler, resume=resume, on_start=progress.start,
-                                  on_outcome=progress.update)
+                                  jobs=jobs, scheduler=scheduler, resume=resume, timeout=timeout,
+                                  on_start=progress.start, on_outcome=progress.update)
     except KeyboardInterrupt:
         progress.close()
         kept = f"{output} keeps the files done; rerun with --resume to finish" if output else "nothing written"

@@ -12,7 +12,7 @@ _LABELS = {"volume": "volume", "center_of_mass": "center of mass", "inertia_com"
 
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
-@click.option("--rtol", type=click.FloatRange(min=0), default=1e-9, show_default=True,
+@click.option("--rtol", type=options.NON_NEGATIVE, default=1e-9, show_default=True,
               help="Largest relative difference allowed between massprops and fair trimesh.")
 @options.format_option("text", "json")
 def check(files, rtol, output_format):

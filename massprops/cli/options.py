@@ -1,13 +1,20 @@
-"""Options shared by several subcommands, as named decorators, and the error edge.
+"""Options shared by several subcommands, as named decorators and parameter types, and the error edge.
+
+Every option value is checked here, by click, before any file is read: a
+bad one is one usage error (exit 2), not one error per file.  Numbers must be
+finite, densities and thicknesses positive, rotations proper.
 
 Library code raises :class:`massprops.errors.MassPropsError`; here, at the
-edge, it becomes one line on stderr (``error: FILE: what — fix``) and an exit
-code.  Set ``MASSPROPS_DEBUG=1`` to see tracebacks of unexpected errors.
+edge, it becomes one line on stderr (``error: FILE: what — fix``, options
+spelled as options) and an exit code.  Set ``MASSPROPS_DEBUG=1`` to see
+tracebacks of unexpected errors.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import re
 import sys
 
 import click
@@ -17,28 +24,98 @@ from ..errors import MassPropsError
 UNIT_CHOICES = ["m", "cm", "mm", "um", "in", "ft"]
 
 
-def _pose_from(rotate, translate):
-    from ..frames import Pose
-    translation = translate or (0.0, 0.0, 0.0)
-    if rotate:
-        return Pose.parse(rotate, translation=translation)
-    return Pose(translation=__import__("numpy").asarray(translation, dtype=float))
+# ---------------------------------------------------------------- parameter types
 
+class Number(click.ParamType):
+    """A finite float; with ``positive``, > 0; with ``zero_ok`` too, ≥ 0."""
+
+    name = "number"
+
+    def __init__(self, *, positive=False, zero_ok=False):
+        self.positive, self.zero_ok = positive, zero_ok
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float) and math.isfinite(value):
+            number = value
+        else:
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                self.fail(f"{value!r} is not a number", param, ctx)
+            if not math.isfinite(number):
+                self.fail(f"{value!r} is not a finite number", param, ctx)
+        if self.positive and not (number > 0 or (self.zero_ok and number == 0)):
+            self.fail(f"must be {'≥ 0' if self.zero_ok else 'positive'}, got {value}", param, ctx)
+        return number
+
+
+FINITE = Number()
+POSITIVE = Number(positive=True)
+NON_NEGATIVE = Number(positive=True, zero_ok=True)
+
+
+class Point(click.ParamType):
+    """``X,Y,Z``: three finite numbers."""
+
+    name = "X,Y,Z"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = str(value).split(",")
+        if len(parts) != 3:
+            self.fail(f"expected X,Y,Z, got {value!r}", param, ctx)
+        return tuple(FINITE.convert(part.strip(), param, ctx) for part in parts)
+
+
+class Rotation(click.ParamType):
+    """A rotation given as text (see :meth:`massprops.frames.Pose.parse`): its proper rotation matrix."""
+
+    name = "ROTATION"
+
+    def convert(self, value, param, ctx):
+        if not isinstance(value, str):
+            return value
+        from ..frames import Pose
+        try:
+            return Pose.parse(value).rotation
+        except MassPropsError as exc:
+            self.fail(exc.render("cli"), param, ctx)
+
+
+class Bytes(click.ParamType):
+    """A size in bytes: ``1000000``, ``500k``, ``200MB``, ``2G`` (powers of 1000)."""
+
+    name = "BYTES"
+    _FORM = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKMGT]?)B?\s*")
+    _SCALE = {"": 1, "k": 10 ** 3, "K": 10 ** 3, "M": 10 ** 6, "G": 10 ** 9, "T": 10 ** 12}
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, int):
+            return value
+        match = self._FORM.fullmatch(str(value))
+        size = int(float(match.group(1)) * self._SCALE[match.group(2)]) if match else 0
+        if size <= 0:
+            self.fail(f"expected a positive size such as 500MB or 2G, got {value!r}", param, ctx)
+        return size
+
+
+# ---------------------------------------------------------------- shared options
 
 def material_options(f):
     """--density / --mass / --unit."""
     f = click.option("--unit", type=click.Choice(UNIT_CHOICES),
                      help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.")(f)
-    f = click.option("--mass", "total_mass", type=float, help="Total mass (density derived).")(f)
-    f = click.option("--density", type=float, help="Density [mass/length³]; default 1, so mass = volume.")(f)
+    f = click.option("--mass", "total_mass", type=POSITIVE, help="Total mass (density derived).")(f)
+    f = click.option("--density", type=POSITIVE, help="Density [mass/length³]; default 1, so mass = volume.")(f)
     return f
 
 
 def pose_options(f):
     """--rotate / --translate, giving the part's pose (x = A x' + t)."""
-    f = click.option("--translate", type=float, nargs=3, default=None, metavar="X Y Z",
+    f = click.option("--translate", type=FINITE, nargs=3, default=None, metavar="X Y Z",
                      help="Translation t of the pose, in mesh units.")(f)
-    f = click.option("--rotate", metavar="ROTATION",
+    f = click.option("--rotate", type=Rotation(), metavar="ROTATION",
                      help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
                           "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
     return f
@@ -47,17 +124,16 @@ def pose_options(f):
 def _density_map(ctx, param, text):
     if text is None:
         return None                 # before the import: plain `props` stays light at start-up
-    from ..errors import OptionError
     from ..mesh.volume import parse_density_map
     try:
         return parse_density_map(text)
-    except OptionError as exc:
-        raise click.BadParameter(str(exc), param_hint="--density-map") from None
+    except MassPropsError as exc:
+        raise click.BadParameter(exc.render("cli"), ctx, param) from None
 
 
 def cell_options(f):
     """--density-field / --density-map (volume meshes) and --shell (surfaces as sheets)."""
-    f = click.option("--shell", type=float, metavar="THICKNESS",
+    f = click.option("--shell", type=POSITIVE, metavar="THICKNESS",
                      help="Treat the surface (open or closed) as a sheet of this thickness in mesh units: "
                           "area density = density × THICKNESS.")(f)
     f = click.option("--density-map", metavar="GROUP=VALUE,...", callback=_density_map,
@@ -82,6 +158,20 @@ def repair_option(f):
                              "what changed.")(f)
 
 
+def unpack_option(f):
+    """--max-unpacked: the size an archive (3MF) may unpack to."""
+    return click.option("--max-unpacked", type=Bytes(), default=None, metavar="BYTES",
+                        help="Largest size an archive such as 3MF may unpack to (default: 100 times the file's "
+                             "size, at least 64 MiB), e.g. 2G for a trusted large file.")(f)
+
+
+def digits_option(f):
+    """--digits: significant digits of the text output (default: those the error bound makes significant)."""
+    return click.option("--digits", type=click.IntRange(1, 17), default=None, metavar="N",
+                        help="Text output: N significant digits for every value (default: the digits the "
+                             "error bound leaves significant).  JSON and CSV keep full precision.")(f)
+
+
 def format_option(*choices):
     def decorate(f):
         return click.option("--format", "output_format", type=click.Choice(list(choices)), default=choices[0],
@@ -89,26 +179,53 @@ def format_option(*choices):
     return decorate
 
 
-def parse_only(text):
-    """The set of quantities named by ``--only a,b,c`` (None when not given); unknown ones are usage errors."""
+def _only(ctx, param, text):
     from ..compute import QUANTITIES
     if text is None:
         return None
     wanted = [w.strip() for w in text.split(",") if w.strip()]
     unknown = [w for w in wanted if w not in QUANTITIES]
-    if unknown:
-        raise click.BadParameter(f"unknown quantity {unknown[0]!r}; pick from {', '.join(QUANTITIES)}",
-                                 param_hint="--only")
-    return set(wanted)
+    if unknown or not wanted:
+        shown = repr(unknown[0]) if unknown else "nothing"
+        raise click.BadParameter(f"unknown quantity {shown}; pick from {', '.join(QUANTITIES)}", ctx, param)
+    return frozenset(wanted)
 
 
-def pose_from_options(rotate, translate):
-    """Build the Pose the options describe (raises OptionError)."""
-    return _pose_from(rotate, translate)
+def only_option(help_text):
+    return click.option("--only", "only", metavar="LIST", callback=_only, help=help_text)
+
+
+def pose_from_options(rotation, translate):
+    """The Pose that ``--rotate`` (a checked rotation matrix or None) and ``--translate`` describe."""
+    import numpy as np
+
+    from ..frames import Pose
+    translation = np.asarray(translate or (0.0, 0.0, 0.0), dtype=float)
+    return Pose(translation=translation) if rotation is None else Pose(rotation, translation)
+
+
+# ---------------------------------------------------------------- output and the error edge
+
+def echo(text="", *, nl=True):
+    """Write ``text`` to stdout; file names with undecodable bytes are written as those bytes."""
+    stream = sys.stdout
+    data = (text + ("\n" if nl else "")).encode(getattr(stream, "encoding", None) or "utf-8", "surrogateescape")
+    buffer = getattr(stream, "buffer", None)
+    if buffer is None:
+        click.echo(data.decode("utf-8", "replace"), nl=False)
+        return
+    stream.flush()
+    buffer.write(data)
+    buffer.flush()
 
 
 def echo_error(message):
     click.echo(f"error: {message}", err=True)
+
+
+def render(exc, path=None):
+    """The one line of a MassPropsError, options spelled as command-line options."""
+    return (exc if exc.path or path is None else exc.with_path(path)).render("cli")
 
 
 def guarded(fn, *args, path=None, **kwargs):
@@ -120,7 +237,7 @@ def guarded(fn, *args, path=None, **kwargs):
     try:
         return fn(*args, **kwargs)
     except MassPropsError as exc:
-        echo_error(str(exc) if exc.path or path is None else str(exc.with_path(path)))
+        echo_error(render(exc, path))
     except MemoryError:
         echo_error(f"{path}: not enough memory to process this mesh — free memory or split the file")
     except Exception as exc:  # noqa: BLE001 - the edge: never a traceback

@@ -16,12 +16,12 @@ from . import options
 @click.option("--record", is_flag=True,
               help="Write the current values of FILE... into EXPECTED (their baseline) instead of comparing; "
                    "rows of other files already in EXPECTED are kept.")
-@click.option("--rtol", type=click.FloatRange(min=0), default=1e-9, show_default=True,
+@click.option("--rtol", type=options.NON_NEGATIVE, default=1e-9, show_default=True,
               help="Relative tolerance, normwise per quantity.")
-@click.option("--atol", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--atol", type=options.NON_NEGATIVE, default=0.0, show_default=True,
               help="Absolute tolerance, in the quantity's units.")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), help="Also write a JUnit XML report here.")
-@click.option("--density", type=float, help="With --record: density to compute with (stored in the baseline).")
+@click.option("--density", type=options.POSITIVE, help="With --record: density to compute with (stored in the baseline).")
 @click.option("--unit", type=click.Choice(options.UNIT_CHOICES), help="With --record: the meshes' length unit.")
 def regress(expected, files, record, rtol, atol, junit, density, unit):
     """Compare every file listed in EXPECTED (a CSV) with its expected values.
@@ -115,5 +115,5 @@ def _computed(mass_properties, row, errors):
     try:
         return mass_properties(row.path, density=row.density, unit=row.unit)
     except MassPropsError as exc:
-        errors.append(str(exc if exc.path else exc.with_path(row.path)))
+        errors.append(options.render(exc, row.path))
         raise

@@ -11,16 +11,17 @@ from . import options
 
 @click.command()
 @click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
-@click.option("--density", type=float,
+@click.option("--density", type=options.POSITIVE,
               help="Density for parts that give none (default 1; kg/m³ with a unit).")
 @click.option("--unit", type=click.Choice(options.UNIT_CHOICES),
               help="The meshes' length unit (overrides the scene's [report] unit); outputs are then SI.")
-@click.option("--only", "only", metavar="LIST",
-              help="Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal "
-                   "for every part and the total (overrides the scene's [report] quantities and principal).")
+@options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal "
+                     "for every part and the total (overrides the scene's [report] quantities and principal).")
 @options.repair_option
+@options.unpack_option
+@options.digits_option
 @options.format_option("text", "json", "csv")
-def scene(scene_file, density, unit, only, repair, output_format):
+def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_format):
     """Mass properties of each part of SCENE and of the whole assembly.
 
     SCENE is a .toml assembly (parts with meshes, densities and poses; frames;
@@ -32,21 +33,23 @@ def scene(scene_file, density, unit, only, repair, output_format):
     from ..scene import assembly
     from ..scene.report import scene_blocks, scene_dict, scene_text
 
-    wanted = options.parse_only(only)
-    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, path=scene_file)
+    wanted = only
+    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, max_unpacked=max_unpacked,
+                             path=scene_file)
     if loaded is not None and wanted is not None:
         principal = frozenset({"total", "parts"}) if "principal" in wanted else frozenset()
         loaded = replace(loaded, report=replace(loaded.report, quantities=frozenset(wanted - {"principal"}),
                                                 principal=principal))
-    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, path=scene_file)
+    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, max_unpacked=max_unpacked,
+                                        path=scene_file)
     if result is None:
         options.exit_with(1)
     obj = scene_dict(result)
     if output_format == "json":
-        click.echo(report.to_json(obj))
+        options.echo(report.to_json(obj))
     elif output_format == "csv":
         rows = [report.csv_row(dict(o, file=f"{obj['scene']}#{o['name']}")) for o in scene_blocks(obj)]
-        click.echo(report.to_csv(rows), nl=False)
+        options.echo(report.to_csv(rows), nl=False)
     else:
-        click.echo(scene_text(obj))
+        options.echo(scene_text(obj, digits=digits))
     options.exit_with(0)

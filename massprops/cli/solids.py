@@ -9,7 +9,10 @@ from . import options
 
 @click.command()
 @click.argument("directory", type=click.Path(file_okay=False))
-def solids(directory):
+@click.option("--robots", is_flag=True,
+              help="Write small URDF, SDF and MJCF robots built from the solids instead, with expected.json "
+                   "(per link: the exact values, and the status and diagnoses `robot check` must give).")
+def solids(directory, robots):
     """Write the reference solids into DIRECTORY, each as binary STL and OBJ, with expected.csv.
 
     expected.csv holds, for every file, the exact polyhedral values of the
@@ -18,6 +21,8 @@ def solids(directory):
     solid, and the tessellation error between them.  Check massprops (or a
     change) against them with `massprops regress DIRECTORY/expected.csv`.
     """
+    if robots:
+        return _robots(directory)
     from ..validation.reference_set import write_reference_set
 
     rows = options.guarded(write_reference_set, directory, path=directory)
@@ -31,3 +36,17 @@ def solids(directory):
                    f"{float(r['smooth_volume']):>20.15g}  {float(r['tess_rel_volume']):>19.2e}  "
                    f"{float(r['tess_rel_inertia']):>8.1e}")
     click.echo(f"wrote {len(rows)} files and expected.csv to {directory}")
+
+
+def _robots(directory):
+    from ..robot.fixtures import write_robots
+
+    expected = options.guarded(write_robots, directory, path=directory)
+    if expected is None:
+        raise SystemExit(1)
+    for fmt in ("urdf", "sdf", "mjcf"):
+        if fmt in expected:
+            links = expected[fmt]["links"]
+            statuses = sorted({entry["status"] for entry in links.values()})
+            click.echo(f"{expected[fmt]['model']}: {len(links)} links ({', '.join(statuses)})")
+    click.echo(f"wrote the robots and expected.json to {directory}")

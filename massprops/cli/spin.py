@@ -11,17 +11,17 @@ from . import options
 
 @click.command()
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--omega", type=float, nargs=3, required=True, metavar="WX WY WZ",
+@click.option("--omega", type=options.FINITE, nargs=3, required=True, metavar="WX WY WZ",
               help="Initial angular velocity ω' in local (body) axes [rad/s].")
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), required=True, metavar="T",
+@click.option("--duration", type=options.POSITIVE, required=True, metavar="T",
               help="Simulated time [s].")
-@click.option("--torque", type=float, nargs=3, default=None, metavar="TX TY TZ",
+@click.option("--torque", type=options.FINITE, nargs=3, default=None, metavar="TX TY TZ",
               help="Constant torque [mass·length²/s²]; torque-free without it.")
 @click.option("--torque-frame", type=click.Choice(["body", "world"]), default="body", show_default=True,
               help="Axes the torque is fixed in.")
 @click.option("--method", type=click.Choice(list(METHODS)), default=DEFAULT_METHOD, show_default=True,
               help="split2/4/6: geometric splitting (exact rotations, |H| kept to rounding); others: scipy.")
-@click.option("--rtol", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--rtol", type=options.POSITIVE, default=None,
               help="Target relative error (default 1e-9).")
 @click.option("--steps", type=click.IntRange(min=1), default=None,
               help="Fixed step count (splitting methods; instead of --rtol).")
@@ -56,9 +56,7 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     if compare_methods and torque is not None:
         raise click.UsageError("--compare-methods measures errors against the torque-free closed form; "
                                "drop --torque")
-    pose = options.guarded(options.pose_from_options, rotate, translate)
-    if pose is None:
-        options.exit_with(True)
+    pose = options.pose_from_options(rotate, translate)
     result = options.guarded(mass_properties, file, density=density, mass=total_mass, unit=unit, pose=pose,
                              repair=repair, path=file)
     if result is None:

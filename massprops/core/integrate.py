@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import MeshGeometryError
 from .face_terms import WORKSPACE_ROWS, chunk_sums, workspace
 from .integrate_dd import integrate_double_double
 from .rounding import U, gamma as _gamma
@@ -169,6 +170,11 @@ def _frame(axes):
     """
     low = axes.min(axis=1)
     high = axes.max(axis=1)
+    with np.errstate(over="ignore"):
+        largest = float((high - low).max())
+    if largest == math.inf and np.isfinite(low).all() and np.isfinite(high).all():
+        raise MeshGeometryError(f"the mesh spans more than the largest double (from {float(low.min()):.3g} to "
+                                f"{float(high.max()):.3g})", fix="rescale it (give it in a larger length unit)")
     reference = np.array([_reference_coordinate(float(lo), float(hi)) for lo, hi in zip(low, high)])
     for axis, (lo, hi) in enumerate(zip(low.tolist(), high.tolist())):
         # The box's centre leaves fewer faces whose plane passes near the reference
@@ -176,7 +182,6 @@ def _frame(axes):
         centre = _short_centre(lo, hi)
         if centre != reference[axis] and _subtracts_exactly(axes[axis], centre):
             reference[axis] = centre
-    largest = float((high - low).max())
     scale_exp = _ceil_log2(largest) if largest > 0 else 0
     radius = float(np.maximum(np.abs(high - reference), np.abs(low - reference)).max())
     return reference, scale_exp, math.ldexp(radius, -scale_exp)

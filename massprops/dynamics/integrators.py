@@ -81,7 +81,7 @@ def simulate(inertia, omega, duration, *, attitude=None, torque=None, torque_fra
     if method not in METHODS:
         raise OptionError(f"unknown method {method!r}", fix=f"pick one of {', '.join(METHODS)}")
     if steps is not None and method not in SPLITTING:
-        raise OptionError(f"--steps applies to the splitting methods, not {method}", fix="give --rtol instead")
+        raise OptionError(f"{{steps}} applies to the splitting methods, not {method}", fix="give {rtol} instead")
     if not (rtol > 0):
         raise OptionError(f"rtol must be positive, got {rtol!r}")
     samples = max(2, int(samples))
@@ -143,7 +143,7 @@ def _steps_for(body, omega_p, torque_p, duration, order, rtol):
     steps = math.ceil(duration / h)
     if steps > _MAX_STEPS:
         raise OptionError(f"reaching rtol={rtol:g} would take about {steps:.2g} steps",
-                          fix="loosen --rtol, shorten --duration, or give --steps")
+                          fix="loosen {rtol}, shorten {duration}, or give {steps}")
     return max(1, steps)
 
 
@@ -164,7 +164,7 @@ def _integrate_scipy(moments, omega_p, quat_p, torque_p, world, duration, method
     solution = solve_ivp(rhs, (0.0, duration), np.concatenate([omega_p, quat_p]), method=method,
                          t_eval=t_eval, rtol=rtol, atol=atol)
     if not solution.success:
-        raise OptionError(f"{method} failed: {solution.message}", fix="try a looser --rtol or another method")
+        raise OptionError(f"{method} failed: {solution.message}", fix="try a looser {rtol} or another method")
     return solution.t, solution.y[:3].T, solution.y[3:].T, solution.nfev
 
 

@@ -61,7 +61,7 @@ def read(path):
     from .trimesh_formats import flattened, load_trimesh
 
     meter, up = asset(path)
-    _, vertices, faces = flattened(load_trimesh(path, file_type="dae"), path)
+    vertices, faces = flattened(load_trimesh(path, file_type="dae"), path)
     notes = []
     if up and up != "Z_UP":
         if up not in _TO_Z_UP:

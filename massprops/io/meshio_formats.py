@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import MeshFormatError
 from ..mesh.surface import TriangleMesh
+from .boundary import third_party
 from .registry import register_format
 
 __all__ = ["read", "EXTENSIONS"]
@@ -42,11 +43,18 @@ def _load(path):
         import meshio
     except ImportError:  # pragma: no cover - meshio is a core dependency
         raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
-    try:
-        return meshio.read(path)
-    except Exception as exc:  # meshio raises many types for bad bytes
-        raise MeshFormatError(f"cannot parse the file ({type(exc).__name__}: {exc})".rstrip(), path=path,
-                              fix="check that the file is a complete mesh of this format") from None
+    return third_party(path, "meshio", meshio.read, path)
+
+
+def _block_cells(block, corners, path):
+    """A block's cells as (n, corners) int64 node numbers; None for an empty block (it adds nothing)."""
+    data = np.asarray(block.data)
+    if data.size == 0:
+        return None
+    if data.ndim != 2 or data.shape[1] < corners or data.dtype.kind not in "iu":
+        raise MeshFormatError(f"a block of {block.type!r} cells has shape {data.shape}, not (cells, {corners} "
+                              "or more nodes)", path=path, fix="check that the file is a complete mesh")
+    return data[:, :corners].astype(np.int64)
 
 
 def read(path):
@@ -62,6 +70,9 @@ def read(path):
 
     mesh = _load(path)
     points = np.asarray(mesh.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise MeshFormatError(f"the nodes have shape {points.shape}, not (nodes, 3)", path=path,
+                              fix="check that the file is a complete mesh")
     if points.shape[1:] == (2,):
         points = np.column_stack([points, np.zeros(len(points))])
     chosen, notes, higher = [], [], 0
@@ -72,7 +83,9 @@ def read(path):
                 raise MeshFormatError(f"cells of type {block.type!r} are not supported", path=path,
                                       fix="export tetrahedra, hexahedra, wedges or pyramids")
             continue
-        cells = np.asarray(block.data, dtype=np.int64)[:, :_VOLUME[base]]
+        cells = _block_cells(block, _VOLUME[base], path)
+        if cells is None:
+            continue
         if base == "wedge" and os.path.splitext(path)[1].lower() in _MIRRORED_WEDGE:
             cells = cells[:, [0, 2, 1, 3, 5, 4]]
         higher += cells.shape[0] if block.type != base else 0
@@ -124,7 +137,9 @@ def _surface(mesh, points, path):
         base = _base_type(block.type, _SURFACE)
         if base is None:
             continue
-        cells = np.asarray(block.data, dtype=np.int64)[:, :_SURFACE[base]]
+        cells = _block_cells(block, _SURFACE[base], path)
+        if cells is None:
+            continue
         if base == "quad":
             cells = np.vstack([cells[:, [0, 1, 2]], cells[:, [0, 2, 3]]])
         triangles.append(cells)

@@ -232,4 +232,4 @@ def write(path, vertices, faces, comment=""):
         f.writelines(lines)
 
 
-register_format("obj", [".obj"], read)
+register_format("obj", [".obj"], read, text=True)

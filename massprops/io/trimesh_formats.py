@@ -2,9 +2,12 @@
 
 trimesh is asked not to process the mesh (no merging of close vertices, no
 removal of faces), so coordinates arrive as stored; a scene is flattened with
-its node transforms applied.  Vertices are then welded by exact coordinates,
-as for every format, so triangle soups (a PLY of separate triangles, a GLB
-with per-face normals) are closed.  A 3MF file's ``unit`` becomes the mesh's
+its node transforms applied.  trimesh runs behind :mod:`massprops.io.boundary`;
+a PLY header's element counts are checked against the file's size first, so a
+header that lies is named as such, and the files a glTF names must be regular
+files as long as it says.  Vertices are then welded by exact coordinates, as
+for every format, so triangle soups (a PLY of separate triangles, a GLB with
+per-face normals) are closed.  A 3MF file's ``unit`` becomes the mesh's
 declared length unit.
 """
 
@@ -14,57 +17,161 @@ import os
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..errors import MeshFormatError, MeshReadError
 from ..mesh.surface import TriangleMesh
+from .boundary import third_party
+from .inputs import check_input, file_size_text
 from .registry import register_format
+
+__all__ = ["load_trimesh", "read", "flattened", "check_ply_header", "check_gltf_resources"]
 
 # 3MF's units (the specification's names) as massprops' unit names.
 _3MF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+_PLY_HEADER_MAX = 1 << 16
+
 
 def load_trimesh(path, **kwargs):
-    """``trimesh.load`` with processing off; errors become MeshFormatError."""
+    """``trimesh.load`` with processing off, behind the reader boundary (``kwargs`` passed on)."""
     try:
         import trimesh
     except ImportError:  # pragma: no cover - trimesh is a core dependency
         raise MeshFormatError("reading this format needs trimesh", path=path,
                               fix="pip install trimesh") from None
+    if path.lower().endswith(".ply"):
+        check_ply_header(path)
+    elif path.lower().endswith((".gltf", ".glb")):
+        check_gltf_resources(path)
+    return third_party(path, "trimesh", trimesh.load, path, process=False, maintain_order=True, **kwargs)
+
+
+def _gltf_json(path):
+    """The JSON of a glTF, or of a GLB's first chunk; None if it cannot be read (trimesh then says why)."""
+    import json
+    import struct
+    with open(path, "rb") as handle:
+        data = handle.read()
+    if data[:4] == b"glTF":
+        if len(data) < 20:
+            return None
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:                       # "JSON"
+            return None
+        data = data[20:20 + length]
     try:
-        return trimesh.load(path, process=False, maintain_order=True, **kwargs)
-    except Exception as exc:  # trimesh raises many types for bad bytes
-        raise MeshFormatError(f"cannot parse the file ({type(exc).__name__}: {exc})".rstrip(), path=path,
-                              fix="check that the file is a complete mesh of this format") from None
+        document = json.loads(data)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    return document if isinstance(document, dict) else None
+
+
+def check_gltf_resources(path):
+    """Every file a glTF names (buffers, images) must be a regular file, and a buffer as long as declared.
+
+    trimesh reads them whole: a named pipe beside the file would block it, a
+    short buffer be read past.
+    """
+    document = _gltf_json(path)
+    if document is None:
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    for kind in ("buffers", "images"):
+        entries = document.get(kind)
+        for entry in entries if isinstance(entries, list) else []:
+            uri = entry.get("uri") if isinstance(entry, dict) else None
+            if not isinstance(uri, str) or uri.startswith("data:"):
+                continue
+            from urllib.parse import unquote
+            resource = os.path.join(folder, unquote(uri))
+            try:
+                info = check_input(resource)
+            except MeshReadError as exc:
+                raise MeshFormatError(f"{kind[:-1]} {uri!r}: {exc.problem}", path=path,
+                                      fix="export the glTF with its files beside it, or as one .glb") from None
+            declared = entry.get("byteLength")
+            if kind == "buffers" and isinstance(declared, int) and declared > info.st_size:
+                raise MeshFormatError(f"buffer {uri!r} holds {info.st_size} bytes, the glTF says {declared}",
+                                      path=path, fix="the buffer is truncated or not this glTF's; export again")
+
+
+def _ply_elements(header):
+    """``(binary, [(name, count, (fixed bytes, properties))])`` of a PLY header's text, or None if unreadable."""
+    binary, elements = None, []
+    for line in header.splitlines()[1:]:
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "format" and len(words) >= 2:
+            binary = words[1] != "ascii"
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append([words[1], int(words[2]), 0, 0])
+        elif words[0] == "property" and elements:
+            element = elements[-1]
+            kind = words[2] if words[1:2] == ["list"] and len(words) >= 5 else words[1] if len(words) >= 3 else None
+            element[2] += _PLY_SIZES.get(kind, 1)      # a list's count field; its items may be none
+            element[3] += 1
+    return binary, elements
+
+
+def check_ply_header(path):
+    """Refuse a PLY whose header declares more elements than the file's size can hold.
+
+    Each binary row takes at least its fixed-size fields (a list at least its
+    count); each ASCII row at least one character and one separator per
+    property.  A header claiming more rows than that is a lie, said as such
+    (trimesh would report a file holding "no triangles").
+    """
+    size = os.path.getsize(path)
+    with open(path, "rb") as handle:
+        head = handle.read(_PLY_HEADER_MAX)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        return                                   # not a PLY header we can read: trimesh says what is wrong
+    data_start = head.find(b"\n", end) + 1 or len(head)
+    binary, elements = _ply_elements(head[:end].decode("ascii", "replace"))
+    if binary is None:
+        return
+    need, available = 0, size - data_start
+    for name, count, fixed, properties in elements:
+        need += count * (fixed if binary else 2 * properties)
+        if need > available + 1:
+            raise MeshFormatError(
+                f"the PLY header says {count} {name} elements, which need at least {file_size_text(need)}, but "
+                f"the file holds {file_size_text(max(0, available))} after its header", path=path,
+                fix="the file is truncated or its header is wrong; export it again")
 
 
 def flattened(loaded, path):
-    """Vertices and faces of a trimesh mesh or scene (node transforms applied)."""
+    """Vertices (float64) and faces of a trimesh mesh or scene, node transforms applied."""
     if hasattr(loaded, "to_geometry"):
-        loaded = loaded.to_geometry() if len(loaded.geometry) else None
+        loaded = third_party(path, "trimesh", loaded.to_geometry) if len(loaded.geometry) else None
     elif hasattr(loaded, "dump") and not hasattr(loaded, "faces"):
-        loaded = loaded.dump(concatenate=True) if len(loaded.geometry) else None
+        loaded = third_party(path, "trimesh", loaded.dump, concatenate=True) if len(loaded.geometry) else None
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise MeshFormatError("the file holds no triangles", path=path, fix="export the part as a closed surface")
-    return loaded, np.asarray(loaded.vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
 
 
 def _declared_unit(loaded, path):
-    """The 3MF ``unit`` (default millimeter), as a massprops unit name, and a note; else (None, None)."""
+    """The 3MF ``unit`` (default millimeter) as a massprops unit name, and a note; else (None, None)."""
     if os.path.splitext(path)[1].lower() != ".3mf":
         return None, None
     name = str((getattr(loaded, "metadata", None) or {}).get("units") or "millimeter").lower()
     unit = _3MF_UNITS.get(name)
     if unit is None:
-        raise MeshFormatError(f"unknown 3MF unit {name!r}", path=path,
-                              fix=f"use one of {', '.join(_3MF_UNITS)}")
+        raise MeshFormatError(f"unknown 3MF unit {name!r}", path=path, fix=f"use one of {', '.join(_3MF_UNITS)}")
     return unit, f"the file declares its length unit: {name}"
 
 
 def read(path):
     loaded = load_trimesh(path)
     unit, note = _declared_unit(loaded, path)
-    _, vertices, faces = flattened(loaded, path)
+    vertices, faces = flattened(loaded, path)
     return TriangleMesh.from_indexed(vertices, faces, notes=(note,) if note else (), unit=unit)
 
 
-register_format("trimesh", [".ply", ".off", ".glb", ".gltf", ".3mf"], read)
+register_format("trimesh", [".ply", ".glb", ".gltf", ".3mf"], read)
+register_format("trimesh", [".off"], read, text=True)

@@ -87,9 +87,9 @@ def weld_noise(mesh, *, path=None, refusal=None):
         widest = float(small.max())
         raise OpenMeshError(f"mesh is open: {edges.shape[0]} boundary edges along gaps at most {widest:.2g} wide",
                             path=path, fix=f"weld vertices closer than {widest:.2g} (trimesh's merge_vertices, "
-                                           "MeshLab's 'Merge Close Vertices'), or pass --repair")
+                                           "MeshLab's 'Merge Close Vertices'), or pass {repair}")
     raise OpenMeshError(_openings(edges, points), path=path,
-                        fix="close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS")
+                        fix="close the holes, pass {repair}, or treat it as a sheet with {shell=THICKNESS}")
 
 
 # Gaps up to this fraction of the part's size are reported as such (a tolerance weld would close them).

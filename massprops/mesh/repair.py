@@ -60,14 +60,14 @@ def repair_mesh(mesh, *, path=None):
     return TriangleMesh(vertices, faces, mesh.source_dtype, mesh.notes, mesh.unit), changes
 
 
-_ADVICE = (re.compile(r",? (or )?pass --repair(?=[,)]|$)"), re.compile(r"^pass --repair to (.*)$"),
-           re.compile(r" \(--repair [^)]*\)"))
+_ADVICE = (re.compile(r",? (or )?pass \{repair\}(?=[,)]|$)"), re.compile(r"^pass \{repair\} to (.*)$"),
+           re.compile(r" \(\{repair\} [^)]*\)"))
 
 
 def after_repair(error):
-    """``error`` as it reads after ``--repair`` was given: the same problem, advice that does not repeat it."""
+    """``error`` as it reads after repair was asked for: the same problem, advice that does not repeat it."""
     fix = error.fix or ""
     fix = _ADVICE[0].sub("", fix)
     fix = _ADVICE[1].sub(r"\1 by hand", fix)
     fix = _ADVICE[2].sub("", fix).strip(" ,")
-    return type(error)(f"{error.problem} (left after --repair)", path=error.path, fix=fix or None)
+    return type(error)(f"{error.problem} (left after {{repair}})", path=error.path, fix=fix or None)

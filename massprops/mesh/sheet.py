@@ -73,7 +73,7 @@ def _without_duplicates(mesh, repair, path):
         return mesh, []
     if not repair:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
-                            fix="remove the duplicates, or pass --repair")
+                            fix="remove the duplicates, or pass {repair}")
     return TriangleMesh(mesh.vertices, mesh.faces[keep], mesh.source_dtype), [f"removed {duplicates} duplicated faces"]
 
 
@@ -89,10 +89,10 @@ def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None
     warnings : list of str
     """
     if not (math.isfinite(thickness) and thickness > 0):
-        raise OptionError(f"--shell thickness must be a positive number, got {thickness!r}")
+        raise OptionError(f"{{shell}} thickness must be a positive number, got {thickness!r}")
     if not isinstance(mesh, TriangleMesh):
-        raise OptionError("--shell takes a surface mesh; this file holds volume cells", path=path,
-                          fix="leave out --shell to integrate the cells")
+        raise OptionError("{shell} takes a surface mesh; this file holds volume cells", path=path,
+                          fix="leave out {shell} to integrate the cells")
     mesh, warnings = _without_duplicates(mesh, repair, path)
     try:
         check_mesh(mesh, path=path)        # finite coordinates, valid indices

@@ -59,7 +59,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
                         "(within rounding: flat, or two-sided): dropped")
     if not live.any():
         raise MeshGeometryError("the solid has zero volume (flat or degenerate: the faces enclose nothing)",
-                                path=path, fix="check the export; a surface needs --shell THICKNESS")
+                                path=path, fix="check the export; a surface needs {shell=THICKNESS}")
     flipped = bool(np.all(six[live] < 0))
     sign = -1.0 if flipped else 1.0
     six = six * sign
@@ -147,7 +147,7 @@ def _decide(units, classes, path):
             raise MeshGeometryError(f"shell {unit[0]} lies where shells wound inward leave a negative winding "
                                     "number", path=path,
                                     fix="orient every body outward and every cavity inward, inside its body "
-                                        "(--repair orients separate bodies)")
+                                        "({repair} orients separate bodies)")
         if (kind > 0 and w == 0) or (kind < 0 and w == 1):
             (unite if len(unit) > 1 else keep).append(unit)
     return keep, unite

@@ -167,7 +167,7 @@ def without_repeated_faces(mesh, *, path=None):
     # closed (each edge as often each way), and stay closed without the copies.
     if any(np.any(edge_balance(f, mesh.vertices.shape[0])[1]) for f in (mesh.faces, repeats.faces)):
         raise OpenMeshError(f"{repeats.same + repeats.cancelled} faces are duplicated (the same triangle twice)",
-                            path=path, fix="remove the duplicates, or pass --repair")
+                            path=path, fix="remove the duplicates, or pass {repair}")
     warnings = []
     if repeats.same:
         shells = face_components(repeats.copies, mesh.vertices.shape[0])[1]
@@ -180,7 +180,7 @@ def without_repeated_faces(mesh, *, path=None):
                         "no volume): left out")
     if repeats.faces.shape[0] == 0:
         raise MeshGeometryError("the solid has zero volume: every face is cancelled by its reverse",
-                                path=path, fix="a two-sided sheet needs --shell THICKNESS")
+                                path=path, fix="a two-sided sheet needs {shell=THICKNESS}")
     return mesh.with_faces(repeats.faces), checks, warnings, repeats.copies
 
 
@@ -329,10 +329,10 @@ def refuse_self_intersection(examples, path):
                             "not the volume it encloses, and manifold3d cannot unite a shell with itself",
                             path=path,
                             fix="remove the crossing in a modeller (or unite the bodies it joins) and export again; "
-                                "--no-self-intersection integrates the signed volume as it is")
+                                "{self_intersection=False} integrates the signed volume as it is")
 
 
 def refuse_inside_out(count, n_shells, path):
     raise WindingError(f"{count} of {n_shells} shells are wound inward but lie outside every other shell "
                        "(a separate body turned inside out)", path=path,
-                       fix="pass --repair to orient every shell outward")
+                       fix="pass {repair} to orient every shell outward")

@@ -232,11 +232,11 @@ def _refuse_unbalanced(faces, uses, balance, path):
     odd = int(np.count_nonzero(uses % 2))
     if duplicates:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
-                            fix="remove the duplicates, or pass --repair")
+                            fix="remove the duplicates, or pass {repair}")
     if odd:
         raise OpenMeshError(f"mesh is open: {odd} boundary edges", path=path,
-                            fix="close the holes, pass --repair, or treat it as a sheet with --shell THICKNESS")
+                            fix="close the holes, pass {repair}, or treat it as a sheet with {shell=THICKNESS}")
     flipped = int(np.count_nonzero(balance))
     raise WindingError(f"faces are wound inconsistently: {flipped} edges are traversed twice in the same "
-                       "direction", path=path, fix="pass --repair to orient the faces consistently")
+                       "direction", path=path, fix="pass {repair} to orient the faces consistently")
 

@@ -21,6 +21,8 @@ term for term); faces between different densities keep both terms.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -132,9 +134,11 @@ def parse_density_map(text):
         except ValueError:
             sep = ""
         if not sep or not group.strip():
-            raise OptionError(f"cannot read {item!r} in --density-map", fix="write GROUP=VALUE,GROUP=VALUE")
+            raise OptionError(f"cannot read {item!r} in {{density_map}}", fix="write GROUP=VALUE,GROUP=VALUE")
+        if not (math.isfinite(mapping[group.strip()]) and mapping[group.strip()] >= 0):
+            raise OptionError(f"the density in {item!r} is not a finite number ≥ 0", fix="give densities ≥ 0")
     if not mapping:
-        raise OptionError("--density-map is empty", fix="write GROUP=VALUE,GROUP=VALUE")
+        raise OptionError("{density_map} is empty", fix="write GROUP=VALUE,GROUP=VALUE")
     return mapping
 
 
@@ -157,10 +161,10 @@ def cell_densities(vmesh, *, density=None, density_field=None, density_map=None,
     ndarray, shape (cells,), float64, or None
     """
     if density_field is not None and density_map is not None:
-        raise OptionError("give --density-field or --density-map, not both")
+        raise OptionError("give {density_field} or {density_map}, not both")
     if density_field is not None:
         if density is not None:
-            raise OptionError("give --density or --density-field, not both")
+            raise OptionError("give {density} or {density_field}, not both")
         rho = _field(vmesh, density_field, path)
     elif density_map is not None:
         rho = _mapped(vmesh, density_map, density, path)
@@ -181,11 +185,11 @@ def _field(vmesh, name, path):
     if name not in vmesh.cell_data:
         names = ", ".join(sorted(vmesh.cell_data)) or "none"
         raise OptionError(f"no cell data named {name!r} (the file has: {names})", path=path,
-                          fix="name one of them with --density-field")
+                          fix="name one of them with {density_field}")
     values = np.asarray(vmesh.cell_data[name])
     if values.ndim > 1 and values[0].size != 1:
         raise OptionError(f"cell data {name!r} has {values[0].size} components per cell, not 1", path=path,
-                          fix="name a scalar cell array with --density-field")
+                          fix="name a scalar cell array with {density_field}")
     return values.reshape(-1).astype(np.float64)
 
 
@@ -194,7 +198,7 @@ def _mapped(vmesh, density_map, default, path):
     if unknown:
         names = ", ".join(sorted(vmesh.groups)) or "none"
         raise OptionError(f"no cell group named {unknown[0]!r} (the file has: {names})", path=path,
-                          fix="use the physical group / cell set names in --density-map")
+                          fix="use the physical group / cell set names in {density_map}")
     rho = np.full(vmesh.n_cells, np.nan)
     assigned = np.zeros(vmesh.n_cells, dtype=bool)
     for group, value in density_map.items():
@@ -202,15 +206,15 @@ def _mapped(vmesh, density_map, default, path):
         clash = assigned[cells] & (rho[cells] != value)
         if clash.any():
             cell = int(cells[_first_cell(clash)])
-            raise OptionError(f"cell {cell} is in two groups of --density-map with different densities",
+            raise OptionError(f"cell {cell} is in two groups of {{density_map}} with different densities",
                               path=path, fix="give each cell one density")
         rho[cells] = value
         assigned[cells] = True
     if not assigned.all():
         if default is None:
-            raise MeshGeometryError(f"{int((~assigned).sum())} cells are in no group of --density-map "
+            raise MeshGeometryError(f"{int((~assigned).sum())} cells are in no group of {{density_map}} "
                                     f"(first: cell {_first_cell(~assigned)})", path=path,
-                                    fix="add their groups to --density-map, or give --density for the rest")
+                                    fix="add their groups to {density_map}, or give {density} for the rest")
         rho[~assigned] = default
     return rho
 
@@ -267,7 +271,7 @@ def _orient_cells(vmesh, points, tets, cell, *, repair, path):
         hint = f" (every {mirrored[0]} is: the file may number their nodes the other way round)" if mirrored else ""
         raise MeshGeometryError(f"{n_inverted} cells are inverted (negative volume; first: cell "
                                 f"{_first_cell(inverted)}){hint}", path=path,
-                                fix="pass --repair to reorient them")
+                                fix="pass {repair} to reorient them")
     if n_inverted:
         flip = inverted[cell]
         tets = tets.copy()

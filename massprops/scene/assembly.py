@@ -24,7 +24,7 @@ import numpy as np
 
 from ..compute import QUANTITIES, checked_moments
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, MeshFormatError, MeshReadError
+from ..errors import MassPropsError, MeshFormatError, MeshGeometryError
 from ..frames import Pose, matmul, matvec, rotate_inertia
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import Scene
@@ -65,18 +65,19 @@ class SceneResult:
     elapsed_s: float
 
 
-def load_scene(path, *, density=None, unit=None):
+def load_scene(path, *, density=None, unit=None, max_unpacked=None):
     """Read a scene: ``.toml`` (massprops's format) or a GLB/glTF/3MF scene graph.
 
     ``density`` is the default for parts that give none; ``unit`` overrides the
-    report's unit.
+    report's unit; ``max_unpacked`` is the size a 3MF may unpack to (see
+    :func:`massprops.io.read`).
     """
+    from ..io.inputs import check_input
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise MeshReadError("no such scene file", path=path, fix="check the path")
+    check_input(path, what="scene file")
     if path.lower().endswith(SCENE_EXTENSIONS):
         from .graph import graph_scene
-        scene = graph_scene(path, density)
+        scene = graph_scene(path, density, max_unpacked=max_unpacked)
     elif path.lower().endswith(".toml"):
         from .toml_file import toml_scene
         scene = toml_scene(path, density)
@@ -86,8 +87,10 @@ def load_scene(path, *, density=None, unit=None):
     return replace(scene, report=replace(scene.report, unit=unit)) if unit else scene
 
 
-def compute_scene(scene, *, repair=False):
+def compute_scene(scene, *, repair=False, max_unpacked=None):
     """Mass properties of every part and of the assembly, computing only what the report asks.
+
+    ``max_unpacked``: the size an archive among the meshes may unpack to (see :func:`massprops.io.read`).
 
     Returns
     -------
@@ -96,7 +99,7 @@ def compute_scene(scene, *, repair=False):
     start = time.perf_counter()
     request = scene.report
     order = request.order
-    records = _integrate_meshes(scene, order, repair)
+    records = _integrate_meshes(scene, order, repair, max_unpacked)
     wanted = request.quantities | ({"principal"} if request.principal else set())
     cache, local, which = {}, [], []
     for part in scene.parts:
@@ -127,7 +130,7 @@ def compute_scene(scene, *, repair=False):
                        time.perf_counter() - start)
 
 
-def _integrate_meshes(scene, order, repair):
+def _integrate_meshes(scene, order, repair, max_unpacked):
     """Read each distinct mesh once and integrate each surface once; a failure names the first part using it.
 
     A volume mesh is only read here: its integrals depend on the part's cell
@@ -143,7 +146,7 @@ def _integrate_meshes(scene, order, repair):
         path = source if isinstance(source, str) else part.mesh
         began = time.perf_counter()
         with _naming(part, path):
-            mesh = read(source) if isinstance(source, str) else source
+            mesh = read(source, max_unpacked=max_unpacked) if isinstance(source, str) else source
             moments, checks, warnings = None, {}, ()
             if isinstance(mesh, TriangleMesh):
                 moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
@@ -159,7 +162,7 @@ def _naming(part, path):
     try:
         yield
     except MassPropsError as exc:
-        raise type(exc)(f"part {part.name!r}: {exc.problem}", path=exc.path or path, fix=exc.fix) from None
+        raise exc.with_context(f"part {part.name!r}", path=path) from None
 
 
 def _local_properties(part, records, unit, wanted, repair):
@@ -181,7 +184,11 @@ def _local_properties(part, records, unit, wanted, repair):
         moments = record.moments
         if part.stretch is not None:
             from .graph import stretched_area2, stretched_moments
-            moments = stretched_moments(moments, part.stretch)
+            try:
+                moments = stretched_moments(moments, part.stretch)
+            except OverflowError:
+                raise MeshGeometryError("its node's scale takes the part's moments beyond double precision",
+                                        fix="export the scene with moderate scales") from None
             moments = replace(moments, area2=stretched_area2(record.mesh, part.stretch, moments.scale_exp)
                               if "surface_area" in wanted else 0.0)
         return MassProperties.from_moments(moments, density=part.density, mass=part.mass, unit=unit,
@@ -219,6 +226,22 @@ def _combine(local, index, rotation, translation, unit):
     translation : ndarray, shape (n, 3)
         Output units.
     """
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = _summed(local, index, rotation, translation, unit)
+    values = [total.volume, total.mass, total.surface_area, total.error.mass, total.error.center_of_mass,
+              total.error.inertia_com]
+    for array in (total.center_of_mass, total.inertia_com):
+        values += [] if array is None else np.ravel(array).tolist()
+    if not all(map(math.isfinite, values)):
+        reach = float(np.abs(translation).max()) if translation.size else 0.0
+        raise MeshGeometryError(f"the assembly's totals overflow double precision (parts are placed up to "
+                                f"{reach:.3g} from the origin)",
+                                fix="place the parts nearer the origin, or give them in a larger length unit")
+    return total
+
+
+def _summed(local, index, rotation, translation, unit):
+    """:func:`_combine`'s sums, which may overflow (checked by the caller)."""
     def per_instance(get):
         return np.array([get(p) for p in local], dtype=float)[index]
 

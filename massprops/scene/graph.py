@@ -19,32 +19,43 @@ from ..errors import MeshFormatError, MeshGeometryError
 from ..frames import Pose
 from .model import Part, Scene
 
-__all__ = ["graph_scene", "placement_poses", "stretched_moments", "stretched_area2"]
+__all__ = ["graph_scene", "scene_from_trimesh", "placement_poses", "stretched_moments", "stretched_area2"]
 
 
 
-def graph_scene(path, density):
+def graph_scene(path, density, *, max_unpacked=None):
     """Every node with geometry becomes a part with its world transform (instances share meshes)."""
+    from ..io.registry import check_mesh_file
     from ..io.trimesh_formats import load_trimesh
-    from ..mesh.surface import TriangleMesh
+    check_mesh_file(path, max_unpacked=max_unpacked)
     loaded = load_trimesh(path)
     if not hasattr(loaded, "graph"):
         loaded = __import__("trimesh").Scene(loaded)
+    return scene_from_trimesh(loaded, path, density)
+
+
+def scene_from_trimesh(loaded, name, density):
+    """A :class:`Scene` of a ``trimesh.Scene``: one part per node with geometry, meshes keyed ``NAME#GEOMETRY``."""
+    from ..mesh.arrays import mesh_from_arrays
     nodes = sorted(loaded.graph.nodes_geometry)
     if not nodes:
-        raise MeshFormatError("the scene holds no geometry", path=path, fix="export the parts as meshes")
+        raise MeshFormatError("the scene holds no geometry", path=name, fix="export the parts as meshes")
     placements = [loaded.graph[node] for node in nodes]
     matrices = np.array([np.asarray(m, dtype=float) for m, _ in placements])
-    poses = placement_poses(matrices[:, :3, :3], matrices[:, :3, 3], path=path)
+    poses = placement_poses(matrices[:, :3, :3], matrices[:, :3, 3], path=name)
     meshes = {}
-    for name in dict.fromkeys(name for _, name in placements):
-        geometry = loaded.geometry[name]
+    for geometry_name in dict.fromkeys(geometry_name for _, geometry_name in placements):
+        geometry = loaded.geometry[geometry_name]
         # Welded by exact coordinates, as every reader does: exporters often split vertices per face.
-        triangles = np.asarray(geometry.vertices, dtype=np.float64)[np.asarray(geometry.faces, dtype=np.int64)]
-        meshes[f"{path}#{name}"] = TriangleMesh.from_triangles(triangles)
-    parts = tuple(Part(node, f"{path}#{name}", pose, density=density, stretch=stretch)
-                  for node, (_, name), (pose, stretch) in zip(nodes, placements, poses))
-    return Scene(path, parts, meshes=meshes)
+        try:
+            meshes[f"{name}#{geometry_name}"] = mesh_from_arrays(geometry.vertices, geometry.faces,
+                                                                 argument=f"geometry {geometry_name!r}")
+        except (TypeError, ValueError, AttributeError) as exc:
+            raise MeshFormatError(f"geometry {geometry_name!r} is not a triangle mesh ({exc})", path=name,
+                                  fix="export the parts as triangle meshes") from None
+    parts = tuple(Part(node, f"{name}#{geometry_name}", pose, density=density, stretch=stretch)
+                  for node, (_, geometry_name), (pose, stretch) in zip(nodes, placements, poses))
+    return Scene(name, parts, meshes=meshes)
 
 
 def placement_poses(linear, translation, *, path=None):
@@ -61,11 +72,16 @@ def placement_poses(linear, translation, *, path=None):
         ``A`` a proper rotation (polar decomposition, a reflection moved into
         ``P``); ``P`` None where ``L`` is already a rotation to rounding.
     """
-    defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(linear)
+    with np.errstate(over="ignore", invalid="ignore"):
+        defect = np.abs(linear @ linear.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+        det = np.linalg.det(linear)
     if not np.all(np.isfinite(linear)) or np.any(det == 0):
         raise MeshGeometryError("a node's transform is singular or not finite", path=path,
                                 fix="give every instance a non-zero scale")
+    if not np.all(np.isfinite(det)) or not np.all(np.isfinite(defect)):
+        raise MeshGeometryError("a node's transform scales volumes beyond double precision "
+                                f"(scale up to {float(np.abs(linear).max()):.3g})", path=path,
+                                fix="export the scene with moderate scales (meshes in the units they are used in)")
     rigid = (defect <= 16 * _U) & (det > 0)
     out = []
     for k in range(linear.shape[0]):
@@ -86,8 +102,11 @@ def stretched_moments(moments, stretch):
     |det P| P second Pᵀ``, and the reference point ``↦ P ref`` (kept exact as
     rationals).  The area is not a function of the moments; it is set by the
     caller from the faces (see :func:`stretched_area2`).
+
+    ``stretch`` holds floats, or Fractions for a map given in decimals (a
+    robot mesh's ``scale="0.001"`` is 1/1000 exactly, not the float nearest it).
     """
-    p = [[Fraction(float(x)) for x in row] for row in stretch]
+    p = [[x if isinstance(x, Fraction) else Fraction(float(x)) for x in row] for row in stretch]
     det = abs(p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
               + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]))
     norm = float(max(sum(abs(x) for x in row) for row in p))

@@ -171,7 +171,3 @@ class Scene:
 
 def _scaled(pose, length):
     return pose if length == 1.0 else Pose(pose.rotation, pose.translation * length)
-
-
-def _scaled(pose, length):
-    return pose if length == 1.0 else Pose(pose.rotation, pose.translation * length)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..compute import Result
-from ..report import result_dict, to_text
+from ..report import about_bound, display_bounds, result_dict, to_text, vector_text
 
 __all__ = ["scene_dict", "scene_text", "scene_blocks"]
 
@@ -59,16 +59,19 @@ def _with_frames(obj, props, poses, request):
     return obj
 
 
-def scene_text(obj):
-    """Readable text: one block per part, then the total and the bookkeeping."""
+def scene_text(obj, *, digits=None):
+    """Readable text: one block per part, then the total and the bookkeeping (digits as in :func:`to_text`)."""
     blocks = []
     for block in scene_blocks(obj):
         lines = [f"{'part ' + block['name'] if block['name'] != 'total' else 'total of ' + obj['scene']}",
-                 to_text(block)]
+                 to_text(block, digits=digits)]
+        bounds = display_bounds(block)
         for entry in block.get("inertia_in_frames", []):
+            origin = obj["frames"].get(entry["frame"], {}).get("translation")
+            bound = None if origin is None else about_bound(block, bounds, origin, rotations=2)
             for i, row in enumerate(np.asarray(entry["inertia"]).tolist()):
                 label = f"in frame {entry['frame']}" if i == 0 else ""
-                lines.append(f"  {label:<22} [" + ", ".join(f"{x: .15g}" for x in row) + "]")
+                lines.append(f"  {label:<22} {vector_text(row, bound, digits)}")
         blocks.append("\n".join(lines))
     stats = obj["stats"]
     blocks.append(f"{stats['instances']} parts, {stats['meshes_integrated']} meshes integrated "

@@ -10,6 +10,7 @@ or inline ``positions = [[x, y, z], ...]`` with optional
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -58,8 +59,7 @@ def toml_scene(path, density):
         where = None
         frames, report = _frames_and_report(data, parts)
     except MassPropsError as exc:
-        problem = exc.problem if where is None else f"{where}: {exc.problem}"
-        raise type(exc)(problem, path=exc.path or path, fix=exc.fix) from None
+        raise (exc if where is None else exc.with_context(where)).with_path(exc.path or path) from None
     return Scene(path, tuple(parts), frames, report)
 
 
@@ -76,11 +76,11 @@ def _frames_and_report(data, parts):
         try:
             frames[name] = _toml_frame(name, spec, names)
         except MassPropsError as exc:
-            raise type(exc)(f"frame {name!r}: {exc.problem}", path=exc.path, fix=exc.fix) from None
+            raise exc.with_context(f"frame {name!r}") from None
     try:
         report = _toml_report(report_spec, set(frames) | names)
     except MassPropsError as exc:
-        raise type(exc)(f"[report]: {exc.problem}", path=exc.path, fix=exc.fix) from None
+        raise exc.with_context("[report]") from None
     return frames, report
 
 
@@ -102,7 +102,7 @@ def _known(spec, keys):
 def _toml_pose(spec):
     position = spec.get("position", [0.0, 0.0, 0.0])
     if not (isinstance(position, list) and len(position) == 3 and all(_is_number(v) for v in position)):
-        raise MeshFormatError(f"position must be 3 numbers, got {position!r}", fix="write position = [x, y, z]")
+        raise MeshFormatError(f"position must be 3 finite numbers, got {position!r}", fix="write position = [x, y, z]")
     rotation = spec.get("rotation")
     if rotation is None:
         return Pose(translation=np.asarray(position, dtype=float))
@@ -112,8 +112,10 @@ def _toml_pose(spec):
     values = rotation.get(form) if form else None
     flat = [v for row in values for v in (row if isinstance(row, list) else [row])] if isinstance(
         values, list) else [values]
-    if form is None or not all(_is_number(v) for v in flat):
-        raise MeshFormatError(f"cannot read rotation {rotation!r}", fix=_ROTATION_FORMS)
+    shaped = form != "matrix" or (len(values) == 3 and all(isinstance(row, list) and len(row) == 3 for row in values))
+    if form is None or not shaped or not all(_is_number(v) for v in flat):
+        raise MeshFormatError(f"cannot read rotation {rotation!r} (finite numbers in the right shape are needed)",
+                              fix=_ROTATION_FORMS)
     if form == "euler":
         if not isinstance(rotation["sequence"], str):
             raise MeshFormatError("the Euler sequence must be a string", fix=_ROTATION_FORMS)
@@ -124,7 +126,8 @@ def _toml_pose(spec):
 
 
 def _is_number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A finite TOML number (TOML has nan and inf literals; neither is a coordinate, a density or an angle)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _toml_part(name, spec, folder, density):
@@ -136,7 +139,7 @@ def _toml_part(name, spec, folder, density):
         raise MeshFormatError("needs mesh = \"path\" (relative to the scene file)")
     for key in ("density", "mass"):
         if key in spec and not _is_number(spec[key]):
-            raise MeshFormatError(f"{key} must be a number, got {spec[key]!r}")
+            raise MeshFormatError(f"{key} must be a finite number, got {spec[key]!r}")
     field, mapping = _cell_densities(spec)
     mass = spec.get("mass")
     # A density field gives every cell its density: the scene's default density does not apply.
@@ -195,7 +198,7 @@ def _number_rows(spec, key, width):
     if values.shape != (len(rows), width) or not all(_is_number(v) for v in values.flat):
         bad = next(k for k, row in enumerate(rows) if not (isinstance(row, list) and len(row) == width
                                                            and all(_is_number(v) for v in row)))
-        raise MeshFormatError(f"{key} entry {bad} is not {width} numbers: {rows[bad]!r}")
+        raise MeshFormatError(f"{key} entry {bad} is not {width} finite numbers: {rows[bad]!r}")
     return values.astype(float)
 
 
@@ -232,7 +235,13 @@ def read_instances(path):
     -------
     Placements
     """
+    from ..io.inputs import check_input, check_no_holes
     binary = path.lower().endswith(".npy")
+    info = check_input(path, what="instances file")
+    if binary:
+        _check_npy_size(path, info.st_size)
+    else:
+        check_no_holes(path, info)
     try:
         if binary:
             values = np.load(path, allow_pickle=False)
@@ -248,6 +257,25 @@ def read_instances(path):
         return _instances_from_rows(*_data_lines(text))
     except MassPropsError as exc:
         raise exc.with_path(path) from None
+
+
+def _check_npy_size(path, size):
+    """Refuse a ``.npy`` whose header declares more data than the file holds (numpy would allocate it first)."""
+    from numpy.lib import format as npy
+    try:
+        with open(path, "rb") as handle:
+            version = npy.read_magic(handle)
+            read_header = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+            shape, _, dtype = read_header(handle)
+            data_start = handle.tell()
+    except (ValueError, OSError, EOFError, SyntaxError) as exc:
+        raise MeshFormatError(f"not a readable .npy file ({exc})", path=path,
+                              fix="save x, y, z[, qw, qx, qy, qz] per row with numpy.save") from None
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > size - data_start:
+        raise MeshFormatError(f"the .npy header says shape {shape} ({need} bytes of {dtype}), but the file holds "
+                              f"{size - data_start} bytes of data", path=path,
+                              fix="the file is truncated or damaged; save it again")
 
 
 def _instances_from_array(values):

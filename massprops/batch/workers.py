@@ -1,0 +1,200 @@
+"""Local worker processes for a batch: a time limit per file, and a dead worker costs only its file.
+
+Each worker is a process fed one file at a time over its own pipe (with one
+more queued, so it never waits for the next).  The parent always knows which
+file a worker holds, so:
+
+* a worker that dies (a crash in a compiled reader, the out-of-memory killer,
+  ``kill -9``) costs only the file it held: that file is retried once in a
+  fresh worker, then reported as a worker failure; the queued file goes back
+  to the queue untouched;
+* a file that takes longer than the time limit has its worker killed and is
+  reported as timed out; a fresh worker takes the next file.
+
+Workers die with their parent: on Linux the kernel kills them when it exits
+(``PR_SET_PDEATHSIG``); elsewhere a thread in each worker watches the parent.
+So ``kill -9`` of a batch leaves no orphans.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+__all__ = ["run_workers", "WORKER_FAILED", "TIMED_OUT"]
+
+WORKER_FAILED = "worker"
+TIMED_OUT = "timeout"
+_QUEUED = 2                      # files sent to a worker ahead: the one it computes and the next
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent(parent):
+    """Make this process end when ``parent`` (a pid) does."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):
+            pass
+        else:
+            if os.getppid() != parent:       # the parent was gone before the request took effect
+                os._exit(1)
+            return
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _serve(connection, parent, threads, compute):
+    """A worker's life: compute each path received, send its outcome back, until told to stop."""
+    _die_with_parent(parent)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)       # Ctrl-C is the parent's to handle
+    os.environ.setdefault("MASSPROPS_THREADS", str(threads))
+    while True:
+        try:
+            path = connection.recv()
+        except (EOFError, OSError):
+            return
+        if path is None:
+            return
+        connection.send(compute(path))
+
+
+@dataclass
+class _Worker:
+    process: object
+    connection: object
+    held: deque = field(default_factory=deque)       # (path, attempt) sent, in order; the first is being computed
+    began: float = 0.0                                 # when it began the first of ``held``
+
+    def stop(self, *, kill=False):
+        if kill and self.process.is_alive():
+            self.process.kill()
+        try:
+            self.connection.close()
+        except OSError:
+            pass
+        self.process.join(timeout=None if kill else 2.0)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join()
+
+
+def _start(context, compute, threads):
+    parent_end, child_end = context.Pipe()
+    process = context.Process(target=_serve, args=(child_end, os.getpid(), threads, compute), daemon=True,
+                              name="massprops-batch-worker")
+    process.start()
+    child_end.close()
+    return _Worker(process, parent_end)
+
+
+def _cause(exitcode):
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exit status {exitcode}"
+
+
+def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
+    """Yield ``compute(path)`` for every path, computed in ``jobs`` worker processes, as they finish.
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute(path) -> outcome``, run in a worker; must not raise (a batch
+        turns every failure into an outcome).
+    failed : callable
+        ``failed(path, kind, detail) -> outcome`` for a file whose worker died
+        twice (``kind`` :data:`WORKER_FAILED`) or ran out of time
+        (:data:`TIMED_OUT`).
+    timeout : float, optional
+        Seconds a file may take; None for no limit.
+    threads : int
+        ``MASSPROPS_THREADS`` for each worker (the cores shared out).
+    """
+    import multiprocessing
+    from multiprocessing.connection import wait
+
+    context = multiprocessing.get_context()
+    queue = deque((path, 0) for path in paths)
+    workers = []
+    try:
+        while queue or any(w.held for w in workers):
+            while len(workers) < min(jobs, len(queue) + sum(len(w.held) for w in workers)):
+                workers.append(_start(context, compute, threads))
+            for worker in workers:
+                _feed(worker, queue)
+            busy = [w for w in workers if w.held]
+            limit = None if timeout is None else max(0.0, min(w.began for w in busy) + timeout - time.monotonic())
+            wait([w.connection for w in busy] + [w.process.sentinel for w in busy], timeout=limit)
+            for worker in list(busy):
+                done, lost = _collect(worker, timeout)
+                yield from done
+                if lost is not None:
+                    workers.remove(worker)
+                    worker.stop(kill=True)
+                    yield from _lost(worker, lost, queue, failed)
+    finally:
+        for worker in workers:
+            try:
+                worker.connection.send(None)
+            except OSError:
+                pass
+        for worker in workers:
+            worker.stop(kill=sys.exc_info()[0] is not None)
+
+
+def _feed(worker, queue):
+    """Send ``worker`` files until it holds :data:`_QUEUED`; a worker found dead keeps them (then retried)."""
+    while queue and len(worker.held) < _QUEUED:
+        if not worker.held:
+            worker.began = time.monotonic()
+        worker.held.append(queue.popleft())
+        try:
+            worker.connection.send(worker.held[-1][0])
+        except OSError:
+            return                    # it died: its sentinel is ready, and _collect says so
+
+
+def _collect(worker, timeout):
+    """The outcomes ``worker`` has sent, and why it is lost (None if it is fine)."""
+    done = []
+    try:
+        while worker.held and worker.connection.poll():
+            done.append(worker.connection.recv())
+            worker.held.popleft()
+            worker.began = time.monotonic()
+    except (EOFError, OSError):
+        pass
+    if not worker.held:
+        return done, None
+    if not worker.process.is_alive():
+        return done, _cause(worker.process.exitcode)
+    if timeout is not None and time.monotonic() - worker.began > timeout:
+        return done, TIMED_OUT
+    return done, None
+
+
+def _lost(worker, cause, queue, failed):
+    """The held file's outcome or its retry; the files queued behind it go back untouched."""
+    (path, attempt), *waiting = worker.held
+    queue.extendleft(reversed(waiting))
+    if cause == TIMED_OUT:
+        yield failed(path, TIMED_OUT, "")
+    elif attempt == 0:
+        queue.appendleft((path, 1))
+    else:
+        yield failed(path, WORKER_FAILED, cause)

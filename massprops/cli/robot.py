@@ -1,0 +1,212 @@
+"""``massprops robot props|check|write MODEL...``: robot descriptions (URDF, xacro, SDF, MJCF)."""
+
+from __future__ import annotations
+
+import shutil
+
+import click
+
+from . import options
+
+_FAILING = ("invalid", "error")
+_STRICT = ("invalid", "error", "mismatch", "missing")
+
+
+def _pairs(ctx, param, values):
+    """``NAME=VALUE`` options into a tuple of pairs."""
+    out = []
+    for text in values:
+        name, sep, value = text.partition("=")
+        if not sep or not name or not value:
+            raise click.BadParameter(f"expected NAME=VALUE, got {text!r}", param_hint=f"--{param.name}")
+        out.append((name.strip(), value.strip()))
+    return tuple(out)
+
+
+def model_options(f):
+    """Options every robot subcommand shares: geometry, mass, paths, meshes, joints."""
+    decorators = [
+        click.option("--geometry", type=click.Choice(["collision", "visual", "auto"]), default="collision",
+                     show_default=True, help="Which geometry gives the solid (auto: collision if a link has any, "
+                                             "else visual)."),
+        click.option("--mass-policy", type=click.Choice(["density", "keep"]), default=None,
+                     help="density: mass from densities; keep: the declared mass spread over the geometry "
+                          "(default: density for props, keep for check and write)."),
+        click.option("--density", type=float, help="Density [kg/m³] for geometry the file and --config give none "
+                                                   "(else 1000, with a warning)."),
+        click.option("--package", "package", multiple=True, metavar="NAME=DIR", callback=_pairs,
+                     help="Where package://NAME/ (or model://NAME/) lives (repeatable); searched first."),
+        click.option("--config", "config_path", type=click.Path(dir_okay=False),
+                     help="TOML: [packages], [materials], [links.\"GLOB\"], [geometries.\"GLOB\"]."),
+        click.option("--joints", metavar="NAME=VALUE,...",
+                     help="Joint values for the robot's total (radians, metres); default all 0."),
+        click.option("--on-open", metavar="hull|shell:T|skip",
+                     help="An open mesh: use its convex hull, a sheet T metres thick, or leave it out "
+                          "(default: the link is an error)."),
+        click.option("--xacro-arg", "xacro_args", multiple=True, metavar="NAME=VALUE", callback=_pairs,
+                     help="Argument for a .xacro file (repeatable)."),
+        options.repair_option,
+    ]
+    for decorate in reversed(decorators):
+        f = decorate(f)
+    return f
+
+
+def _settings(command, geometry, mass_policy, density, package, config_path, joints, on_open, xacro_args, repair,
+              **extra):
+    from ..robot.analyze import RobotSettings
+    from ..robot.geometry import parse_on_open
+    parse = options.guarded(parse_on_open, on_open)
+    if parse is None:
+        raise SystemExit(2)
+    return RobotSettings(command=command, geometry=geometry, mass_policy=mass_policy, density=density,
+                         packages=package, config_path=config_path, joints=joints, repair=repair, on_open=on_open,
+                         xacro_args=xacro_args, **extra)
+
+
+def _analyze_all(models, settings, jobs):
+    """Every model's object, in order; several models run in worker processes like ``batch``."""
+    from ..robot.analyze import analyze
+    if len(models) <= 1 or jobs == 1:
+        return [analyze(m, settings) for m in models]
+    from concurrent.futures import ProcessPoolExecutor
+    from ..batch.run import default_jobs
+    workers = min(jobs or default_jobs(), len(models))
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(analyze, models, [settings] * len(models)))
+
+
+def _emit(objects, output_format, text):
+    from .. import report
+    from ..robot import report as robot_report
+    if output_format == "json":
+        click.echo(report.to_json(objects))
+    elif output_format == "csv":
+        click.echo(robot_report.csv_text(objects), nl=False)
+    else:
+        for obj in objects:
+            click.echo(text(obj))
+            click.echo("")
+    for obj in objects:
+        if obj.get("status") == "error" and output_format != "text":
+            options.echo_error(f"{obj['model']}: {obj['message']}")
+
+
+def _exit(objects, failing):
+    bad = any(obj.get("status") == "error" or any(link["status"] in failing for link in obj["links"])
+              for obj in objects)
+    options.exit_with(bad)
+
+
+@click.group()
+def robot():
+    """Robot descriptions: per-link mass properties, checks of the declared inertials, corrected files.
+
+    MODEL is a URDF (.urdf, or .xacro with the xacro package), SDF or MJCF
+    (through the mujoco package) file; the format comes from its root element.
+    URDF/SDF ixy etc. are tensor elements (−∫xy dm) about the center of mass
+    in the inertial frame (rpy: R = Rz(y) Ry(p) Rx(r)).  All values are SI.
+    """
+
+
+@robot.command("props")
+@click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@model_options
+@options.format_option("text", "json", "csv")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
+def props(models, output_format, jobs, **kwargs):
+    """Every link's mass properties from its geometry, and the robot's total at --joints.
+
+    Per link: mass, center of mass (link frame), inertia about it (link axes),
+    principal moments and axes, error bounds, and each geometry with the file
+    it resolved to.  Exit 1 if a model or a link could not be computed.
+    """
+    from ..robot.report import props_text
+    settings = _settings("props", **kwargs)
+    objects = _analyze_all(models, settings, jobs)
+    _emit(objects, output_format, props_text)
+    _exit(objects, ("error",))
+
+
+@robot.command("check")
+@click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@model_options
+@click.option("--declared-only", is_flag=True, help="Check the declared inertials alone (no meshes read).")
+@click.option("--strict", is_flag=True, help="Exit 1 also on mismatch and missing.")
+@click.option("--massless", multiple=True, metavar="GLOB", help="Links whose mass 0 is intended (repeatable).")
+@click.option("--inertia-rtol", type=float, default=0.1, show_default=True,
+              help="Mismatch when max|J_declared − J| / max|J| exceeds this.")
+@click.option("--com-rtol", type=float, default=0.1, show_default=True,
+              help="Mismatch when the COM distance exceeds this fraction of the link size.")
+@click.option("--diagnosis-rtol", type=float, default=0.02, show_default=True,
+              help="How close a diagnosis's transformed tensor must come to the declared one.")
+@click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
+@options.format_option("text", "json", "csv")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
+def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
+          jobs, **kwargs):
+    """Check each link's declared inertial: valid, and consistent with its geometry.
+
+    Status per link: ok, mismatch (with diagnoses), invalid, missing,
+    no-geometry, massless, error.  Exit 1 only on invalid or error (with
+    --strict also on mismatch and missing); a mismatch explains, since declared
+    inertials are rarely of uniform solids.
+    """
+    from ..robot.check import Tolerances
+    from ..robot.report import check_text, junit_xml
+    for name, value in (("--inertia-rtol", inertia_rtol), ("--com-rtol", com_rtol),
+                        ("--diagnosis-rtol", diagnosis_rtol)):
+        if not value > 0:
+            raise click.BadParameter("must be positive", param_hint=name)
+    settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
+                         massless=tuple(massless), declared_only=declared_only, **kwargs)
+    objects = _analyze_all(models, settings, jobs)
+    _emit(objects, output_format, check_text)
+    failing = _STRICT if strict else _FAILING
+    if junit:
+        with open(junit, "w", encoding="utf-8") as handle:
+            handle.write(junit_xml(objects, failing))
+    _exit(objects, failing)
+
+
+@robot.command("write")
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True), help="Write the new file here.")
+@click.option("--in-place", is_flag=True, help="Overwrite MODEL, keeping MODEL.bak.")
+@click.option("--links", "links_glob", multiple=True, metavar="GLOB",
+              help="Write these links (repeatable); default: links whose inertial is missing or invalid.")
+@click.option("--all", "all_links", is_flag=True, help="Write every link that has geometry.")
+@click.option("--frame", type=click.Choice(["link", "principal"]), default="link", show_default=True,
+              help="link: origin at the COM, no rotation, full tensor in link axes; principal: diagonal tensor "
+                   "with the principal axes' rotation.")
+@model_options
+def write(model, output, in_place, links_glob, all_links, frame, **kwargs):
+    """Write <inertial> elements computed from the geometry; every other byte stays as it was.
+
+    Numbers are written in shortest round-trip form and read back through the
+    strict checks (A + B >= C with no tolerance, positive definite); a thin
+    plate's moments may be nudged by a few ulps for that, and it is said.
+    """
+    from ..robot.write import write_inertials
+    if bool(output) == bool(in_place):
+        raise click.UsageError("give -o OUT or --in-place (one of them)")
+    settings = _settings("check", **kwargs)
+    result = options.guarded(write_inertials, model, settings, links_glob=links_glob or None, all_links=all_links,
+                             frame=frame, path=model)
+    if result is None:
+        raise SystemExit(1)
+    target = model if in_place else output
+    if in_place:
+        shutil.copy2(model, model + ".bak")
+    with open(target, "wb") as handle:
+        handle.write(result.data)
+    for record in result.written:
+        note = f"; {record['nudge_note']}" if record.get("nudge_note") else ""
+        click.echo(f"wrote {record['link']} (was {record['before']}): mass {record['mass']:.9g} kg{note}")
+        for warning in record["warnings"]:
+            click.echo(f"  warning: {warning}")
+    for record in result.skipped:
+        click.echo(f"left {record['link']}: {record['reason']}")
+    where = f"{target} (backup {model}.bak)" if in_place else target
+    click.echo(f"{len(result.written)} inertial(s) written to {where}")
+    options.exit_with([r for r in result.skipped if r["failed"]])

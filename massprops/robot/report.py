@@ -1,0 +1,192 @@
+"""Text, CSV and JUnit renderings of analysed models (the JSON is :func:`massprops.report.to_json` of them)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+
+__all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
+
+CSV_COLUMNS = ("model,link,status,message,mass,volume,density,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
+               "err_mass,err_inertia,declared_mass,declared_cx,declared_cy,declared_cz,declared_Ixx,declared_Iyy,"
+               "declared_Izz,declared_Ixy,declared_Ixz,declared_Iyz,implied_density,com_distance,"
+               "inertia_difference,diagnoses,geometries,elapsed_s").split(",")
+_TENSOR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def _g(value, digits=6):
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def _vector(values, digits=6):
+    return "-" if values is None else "[" + ", ".join(f"{v:.{digits}g}" for v in values) + "]"
+
+
+def _header(obj, extra=""):
+    name = f" '{obj['name']}'" if obj.get("name") else ""
+    return (f"{obj['model']}  ({obj['format']}{name}, {len(obj['links'])} links, {obj['geometry']} geometry, "
+            f"mass policy {obj['mass_policy']}{extra})")
+
+
+def _geometry_text(link):
+    parts = []
+    for g in link.get("geometries") or []:
+        if g.get("included") is False:
+            continue
+        text = g["kind"] if not g.get("uri") else f"{g['kind']} {os.path.basename(g['uri'])}"
+        if g.get("scale") and any(s != 1 for s in g["scale"]):
+            text += " ×" + "·".join(f"{s:g}" for s in g["scale"])
+        parts.append(text)
+    return ", ".join(parts) or "-"
+
+
+def _table(rows):
+    widths = [max(len(str(row[k])) for row in rows) for k in range(len(rows[0]))]
+    return ["  " + "  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip() for row in rows]
+
+
+def _total_lines(obj):
+    total = obj.get("total")
+    if not total:
+        return []
+    frame = "the model frame" if obj["frame"] in ("model", "world") else f"the frame of root link '{obj['frame']}'"
+    moved = {k: v for k, v in obj.get("joints", {}).items() if v}
+    at = "joints at 0" if not moved else "joints " + ", ".join(f"{k}={v:g}" for k, v in moved.items())
+    lines = [f"  total ({at}; in {frame}): mass {_g(total['mass'], 9)} kg ± {total['error']['mass']:.2g}, "
+             f"center of mass {_vector(total['center_of_mass'], 9)} m"]
+    for k, row in enumerate(total["inertia_com"]):
+        label = "inertia about it [kg·m²]" if k == 0 else ""
+        lines.append(f"    {label:<26}{_vector(row, 9)}" + (f"   ± {total['error']['inertia_com']:.2g}" if k == 0
+                                                              else ""))
+    if total.get("left_out"):
+        lines.append(f"    (leaves out the links that failed: {', '.join(total['left_out'])})")
+    return lines
+
+
+def _failed(obj):
+    return [f"error: {obj['model']}: {obj['message']}"]
+
+
+def props_text(obj):
+    """A readable block for one ``robot props`` object."""
+    if obj.get("status") == "error":
+        return "\n".join(_failed(obj))
+    rows = [("link", "status", "mass [kg]", "± ", "center of mass [m]", "principal moments [kg·m²]", "geometry")]
+    for link in obj["links"]:
+        error = link.get("error") or {}
+        rows.append((link["link"], link["status"], _g(link["mass"], 9),
+                     f"{error['mass']:.1e}" if error.get("mass") else "", _vector(link["center_of_mass"]),
+                     _vector(link.get("principal_moments")), _geometry_text(link)))
+    lines = [_header(obj), *_table(rows), *_total_lines(obj)]
+    lines += _messages(obj)
+    return "\n".join(lines)
+
+
+def _messages(obj):
+    lines = []
+    for link in obj["links"]:
+        if link["message"] and link["status"] != "ok":
+            lines.append(f"  {link['link']}: {link['message']}")
+        for warning in link.get("warnings") or []:
+            lines.append(f"  warning: {warning}")
+    for warning in obj.get("warnings") or []:
+        lines.append(f"  warning: {warning}")
+    return lines
+
+
+def _percent(value):
+    if value is None:
+        return "-"
+    return f"{value:.2%}" if value < 10 else f"×{value:.3g}"
+
+
+def check_text(obj):
+    """A readable block for one ``robot check`` object: a row per link, then what is wrong and why."""
+    if obj.get("status") == "error":
+        return "\n".join(_failed(obj))
+    rows = [("link", "status", "mass [kg]", "density*", "COM off [m]", "(of size)", "inertia off", "diagnoses")]
+    for link in obj["links"]:
+        comparison = link.get("comparison") or {}
+        declared = link.get("declared") or {}
+        rows.append((link["link"], link["status"], _g(declared.get("mass")),
+                     _g(comparison.get("implied_density"), 4),
+                     _g(comparison.get("com_distance"), 3),
+                     f"{comparison['com_distance_relative']:.1%}" if "com_distance_relative" in comparison else "-",
+                     _percent(comparison.get("inertia_difference")),
+                     ", ".join(link["diagnoses"]) or "-"))
+    lines = [_header(obj), *_table(rows),
+             "  * implied density: declared mass / geometry volume [kg/m³]"]
+    lines += _messages(obj)
+    lines.append(f"  summary: {', '.join(f'{n} {s}' for s, n in obj['summary'].items())}")
+    return "\n".join(lines)
+
+
+def _csv_row(obj, link):
+    row = dict.fromkeys(CSV_COLUMNS, "")
+    row.update(model=obj["model"], link=link["link"], status=link["status"], message=link["message"],
+               diagnoses=" ".join(link["diagnoses"]), geometries=_geometry_text(link),
+               elapsed_s=repr(link.get("elapsed_s", 0.0)))
+    for key in ("mass", "volume", "density"):
+        if link.get(key) is not None:
+            row[key] = repr(link[key])
+    if link.get("center_of_mass") is not None:
+        row.update(zip(("cx", "cy", "cz"), map(repr, link["center_of_mass"])))
+    if link.get("inertia_com") is not None:
+        j = link["inertia_com"]
+        row.update(zip(("Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"), (repr(j[a][b]) for a, b in _TENSOR)))
+        row.update(err_mass=repr(link["error"]["mass"]), err_inertia=repr(link["error"]["inertia_com"]))
+    if link.get("principal_moments") is not None:
+        row.update(zip(("I1", "I2", "I3"), map(repr, link["principal_moments"])))
+    declared = link.get("declared")
+    if declared and declared.get("inertia_com") is not None:
+        row["declared_mass"] = repr(declared["mass"])
+        row.update(zip(("declared_cx", "declared_cy", "declared_cz"), map(repr, declared["center_of_mass"])))
+        d = declared["inertia_com"]
+        row.update(zip(("declared_Ixx", "declared_Iyy", "declared_Izz", "declared_Ixy", "declared_Ixz",
+                        "declared_Iyz"), (repr(d[a][b]) for a, b in _TENSOR)))
+    comparison = link.get("comparison") or {}
+    for key in ("implied_density", "com_distance", "inertia_difference"):
+        if key in comparison:
+            row[key] = repr(comparison[key])
+    return row
+
+
+def csv_text(objects):
+    """One CSV row per link of every model (a model that failed: one row with status error)."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for obj in objects:
+        if obj.get("status") == "error":
+            writer.writerow({**dict.fromkeys(CSV_COLUMNS, ""), "model": obj["model"], "status": "error",
+                             "message": obj["message"]})
+            continue
+        for link in obj["links"]:
+            writer.writerow(_csv_row(obj, link))
+    return buffer.getvalue()
+
+
+def junit_xml(objects, failing):
+    """JUnit XML: a test suite per model, a test case per link; ``failing`` statuses are failures."""
+    from xml.etree import ElementTree as ET
+    root = ET.Element("testsuites", name="massprops robot")
+    for obj in objects:
+        links = obj.get("links") or []
+        suite = ET.SubElement(root, "testsuite", name=obj["model"], tests=str(max(1, len(links))),
+                              failures=str(sum(1 for link in links if link["status"] in failing)),
+                              errors=str(1 if obj.get("status") == "error" else 0),
+                              time=f"{obj.get('elapsed_s', 0.0):.3f}")
+        if obj.get("status") == "error":
+            case = ET.SubElement(suite, "testcase", classname="massprops.robot", name=obj["model"])
+            ET.SubElement(case, "error", message=obj["message"]).text = obj["message"]
+            continue
+        for link in links:
+            case = ET.SubElement(suite, "testcase", classname=f"massprops.robot.{obj.get('name') or 'model'}",
+                                 name=link["link"], time=f"{link.get('elapsed_s', 0.0):.3f}")
+            if link["status"] in failing:
+                text = link["message"] or link["status"]
+                ET.SubElement(case, "failure", message=f"{link['status']}: {text}"[:500],
+                              type=link["status"]).text = text
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"

@@ -1,0 +1,232 @@
+"""Where the files a robot description names are: ``package://``, ``model://``, ``file://`` and relative URIs.
+
+Order for ``package://NAME/rest`` (first hit wins, every try is logged):
+
+1. ``--package NAME=DIR`` (``packages=`` here);
+2. the config file's ``[packages]``;
+3. the ROS path variables: ``ROS_PACKAGE_PATH`` (each entry, its ``NAME``
+   folder, or a folder below it whose ``package.xml`` names ``NAME``) and
+   ``AMENT_PREFIX_PATH`` (``PREFIX/share/NAME``);
+4. a ``package.xml`` whose ``<name>`` is ``NAME``, walking up from the model
+   file: in each folder above it and in that folder's sub-folders;
+5. a folder called ``NAME`` above the model file (a package without its
+   ``package.xml``, as PyPI packages often ship them), with a warning.
+
+``model://NAME/rest`` tries 1 and 2, then the Gazebo path variables
+(``GZ_SIM_RESOURCE_PATH``, ``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``,
+``SDF_PATH``), then folders above the model file holding ``NAME/model.config``.
+``file://`` is an absolute path; anything without a scheme is relative to the
+model file's folder.  ``http(s)://`` is refused: massprops reads no network.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+from ..errors import MeshReadError
+
+__all__ = ["Resolution", "Resolver", "ROS_VARIABLES", "GAZEBO_VARIABLES"]
+
+ROS_VARIABLES = ("ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH")
+GAZEBO_VARIABLES = ("GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH", "GAZEBO_MODEL_PATH", "SDF_PATH")
+_PACKAGE_NAME = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """One URI's resolution: the file found (or None), by which rule, and every place tried."""
+
+    uri: str
+    path: str | None
+    by: str | None
+    tried: tuple = ()
+    warning: str | None = None
+
+    def as_dict(self):
+        return {"uri": self.uri, "resolved_path": self.path, "resolved_by": self.by, "tried": list(self.tried)}
+
+
+@dataclass
+class Resolver:
+    """Resolves URIs for one model file and logs every resolution.
+
+    Parameters
+    ----------
+    model_path : str
+        The description file; relative URIs and the upward search start at its folder.
+    packages : dict of str to str
+        ``--package NAME=DIR`` (relative paths are relative to the current folder).
+    config_packages : dict of str to str
+        The config file's ``[packages]`` (relative to the config file; the caller makes them absolute).
+    environ : mapping
+        The environment (``os.environ`` by default).
+    """
+
+    model_path: str
+    packages: dict = field(default_factory=dict)
+    config_packages: dict = field(default_factory=dict)
+    environ: dict | None = None
+    log: dict = field(default_factory=dict)
+    _package_xml: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.environ is None:
+            self.environ = dict(os.environ)
+
+    @property
+    def folder(self):
+        return os.path.dirname(os.path.abspath(self.model_path))
+
+    def resolve(self, uri, *, base=None):
+        """The :class:`Resolution` of ``uri`` (logged once per distinct URI and base)."""
+        key = (uri, base)
+        if key not in self.log:
+            self.log[key] = self._resolve(uri.strip(), base or self.folder)
+        return self.log[key]
+
+    def require(self, uri, *, base=None, what="mesh"):
+        """The resolved path of ``uri``; a :class:`MeshReadError` listing the places tried if none."""
+        resolution = self.resolve(uri, base=base)
+        if resolution.path is None:
+            if resolution.by == "refused":
+                raise MeshReadError(f"{what} {uri!r}: {resolution.tried[0]}", path=self.model_path,
+                                    fix="download the file and give a local path")
+            tried = "; ".join(resolution.tried) or "nowhere to look"
+            fix = ("give --package NAME=DIR or set ROS_PACKAGE_PATH" if uri.startswith("package://") else
+                   "set GZ_SIM_RESOURCE_PATH or give --package NAME=DIR" if uri.startswith("model://") else
+                   "check the path")
+            raise MeshReadError(f"{what} {uri!r} not found (tried: {tried})", path=self.model_path, fix=fix)
+        return resolution.path
+
+    def find_package(self, name):
+        """The folder of ROS package ``name`` (xacro's ``$(find NAME)``), by the same rules; None if not found."""
+        tried = []
+        for folder, by in self._package_folders(name, "package"):
+            tried.append(f"{folder} ({by})")
+            if os.path.isdir(folder):
+                self.log[(f"$(find {name})", None)] = Resolution(f"$(find {name})", folder, by, tuple(tried))
+                return folder
+        self.log[(f"$(find {name})", None)] = Resolution(f"$(find {name})", None, None, tuple(tried))
+        return None
+
+    # -- the rules -----------------------------------------------------------
+
+    def _resolve(self, uri, base):
+        scheme, sep, rest = uri.partition("://")
+        if not sep:
+            path = uri if os.path.isabs(uri) else os.path.join(base, uri)
+            return self._checked(uri, [(os.path.normpath(path), "relative to the model" if not os.path.isabs(uri)
+                                        else "absolute path")])
+        scheme = scheme.lower()
+        if scheme in ("http", "https"):
+            return Resolution(uri, None, "refused", ("http(s) URIs are not fetched: massprops reads local files only",))
+        if scheme == "file":
+            path = rest if rest.startswith("/") else "/" + rest
+            return self._checked(uri, [(path, "file://")])
+        if scheme not in ("package", "model"):
+            return Resolution(uri, None, None, (f"unknown URI scheme {scheme!r}",))
+        name, _, inner = rest.partition("/")
+        candidates = [(os.path.join(folder, inner), by) for folder, by in self._package_folders(name, scheme)]
+        found = self._checked(uri, candidates, ancestor_name=name if scheme == "package" else None)
+        if found.path is None:
+            return Resolution(uri, None, None, found.tried + self._searched(name, scheme))
+        return found
+
+    def _searched(self, name, scheme):
+        """What the rules looked at without finding ``name`` (for the message of a URI not found)."""
+        notes = [] if name in self.packages else [f"no --package {name}=DIR"]
+        variables = ROS_VARIABLES if scheme == "package" else GAZEBO_VARIABLES
+        for variable in variables:
+            notes.append(f"{variable}={self.environ[variable]}" if self.environ.get(variable) else f"{variable} unset")
+        what = f"package.xml naming {name!r} nor folder {name!r}" if scheme == "package" \
+            else f"folder {name!r} with a model.config"
+        notes.append(f"no {what} above {self.folder}")
+        return tuple(notes)
+
+    def _checked(self, uri, candidates, ancestor_name=None):
+        tried, seen = [], set()
+        for path, by in candidates:
+            if path in seen:
+                continue
+            seen.add(path)
+            tried.append(f"{path} ({by})")
+            if os.path.isfile(path):
+                warning = (f"{uri}: resolved by the folder name {ancestor_name!r} above the model (no package.xml "
+                           f"names it) — give --package {ancestor_name}=DIR to be sure") if by == "folder name" else None
+                return Resolution(uri, os.path.normpath(path), by, tuple(tried), warning)
+        return Resolution(uri, None, None, tuple(tried))
+
+    def _package_folders(self, name, scheme):
+        """Candidate folders for package (or model) ``name``, in the documented order, each with its rule."""
+        if name in self.packages:
+            yield os.path.abspath(self.packages[name]), "--package"
+        if name in self.config_packages:
+            yield self.config_packages[name], "config [packages]"
+        if scheme == "package":
+            for entry in self._split("ROS_PACKAGE_PATH"):
+                for folder in (os.path.join(entry, name), entry):
+                    if self._names(folder) == name:
+                        yield folder, "ROS_PACKAGE_PATH"
+                for folder in self._subfolders(entry):
+                    if self._names(folder) == name:
+                        yield folder, "ROS_PACKAGE_PATH"
+            for prefix in self._split("AMENT_PREFIX_PATH"):
+                yield os.path.join(prefix, "share", name), "AMENT_PREFIX_PATH"
+            for ancestor in self._ancestors():
+                for folder in (ancestor, *self._subfolders(ancestor)):
+                    if self._names(folder) == name:
+                        yield folder, "package.xml"
+            for ancestor in self._ancestors():
+                if os.path.basename(ancestor) == name:
+                    yield ancestor, "folder name"
+                candidate = os.path.join(ancestor, name)
+                if os.path.isdir(candidate):
+                    yield candidate, "folder name"
+        else:
+            for variable in GAZEBO_VARIABLES:
+                for entry in self._split(variable):
+                    yield os.path.join(entry, name), variable
+            for ancestor in self._ancestors():
+                if os.path.isfile(os.path.join(ancestor, name, "model.config")):
+                    yield os.path.join(ancestor, name), "model.config"
+                if os.path.basename(ancestor) == name and os.path.isfile(os.path.join(ancestor, "model.config")):
+                    yield ancestor, "model.config"
+
+    def _split(self, variable):
+        return [p for p in self.environ.get(variable, "").split(os.pathsep) if p]
+
+    def _ancestors(self):
+        folder = self.folder
+        while True:
+            yield folder
+            parent = os.path.dirname(folder)
+            if parent == folder:
+                return
+            folder = parent
+
+    @staticmethod
+    def _subfolders(folder):
+        try:
+            return sorted(os.path.join(folder, n) for n in os.listdir(folder)
+                          if os.path.isdir(os.path.join(folder, n)))
+        except OSError:
+            return []
+
+    def _names(self, folder):
+        """The ``<name>`` in ``folder/package.xml`` (cached), or None."""
+        if folder not in self._package_xml:
+            name = None
+            try:
+                with open(os.path.join(folder, "package.xml"), "rb") as handle:
+                    match = _PACKAGE_NAME.search(handle.read(65536))
+                name = match.group(1).decode("utf-8", "replace") if match else None
+            except OSError:
+                pass
+            self._package_xml[folder] = name
+        return self._package_xml[folder]
+
+    def resolutions(self):
+        """The log as JSON-able dicts, in the order the URIs were first resolved."""
+        return [r.as_dict() for r in self.log.values()]
