@@ -107,5 +107,6 @@ def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None
                                              path=path)
     checks = {"closed": boundary_edges == 0 and not np.any(uses % 2), "orientation": "not needed (shell)",
               "shells": face_components(mesh.faces, mesh.vertices.shape[0])[1], "boundary_edges": boundary_edges,
-              "duplicate_faces": 0, "shell_thickness": thickness}
+              "duplicate_faces": 0, "shell_thickness": thickness,
+              "self_intersection": "not checked"}
     return properties, checks, warnings

@@ -44,10 +44,10 @@ from ..core.topology import face_components
 __all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "without_repeated_faces", "solid_of",
            "swept_volume", "widened", "overlap_warning"]
 
-# By default the self-intersection check runs on meshes up to this many faces
-# (above, it would cost more than a quarter of the end-to-end time; measured
-# in benchmarks/bench_solid.py, see the README).  ``self_intersection=True`` forces it.
-SELF_INTERSECTION_UP_TO = 200_000
+# By default the self-intersection check runs on meshes up to this many faces: there it costs at most about
+# a fifth of `massprops props` end to end; at 200k-300k faces a third or more, on the 1.31M icosphere half
+# (benchmarks/bench_solid.py, docs/speed.md).  ``self_intersection=True`` forces it at any size.
+SELF_INTERSECTION_UP_TO = 100_000
 
 
 @dataclass(frozen=True)

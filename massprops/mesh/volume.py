@@ -365,5 +365,6 @@ def volume_mass_properties(vmesh, *, density=None, mass=None, unit=None, pose=No
               "shells": face_components(surface, points.shape[0])[1], "boundary_edges": 0,
               "cells": vmesh.n_cells, "cell_types": vmesh.cell_types(), "tetrahedra": int(tets.shape[0]),
               "inverted_cells": reoriented, "degenerate_cells": 0, "refined_faces": moments.refined_faces,
-              "density": "per cell" if rho is not None else "uniform", "nonplanar_faces": nonplanar}
+              "density": "per cell" if rho is not None else "uniform", "nonplanar_faces": nonplanar,
+              "self_intersection": "not checked"}
     return properties, int(surface.shape[0]), checks, warnings
