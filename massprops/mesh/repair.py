@@ -50,6 +50,11 @@ def repair_mesh(mesh, *, path=None):
         removed, flipped, added = removed + removed_now, flipped + flipped_now, added + added_now
         if not (removed_now or flipped_now or added_now):
             break
+    else:
+        # No fixed point (hole filling keeps adding faces that repeat others): the repeats go, at least.
+        keep = distinct_faces(faces)
+        removed += faces.shape[0] - keep.size
+        faces = faces[keep]
     changes = []
     if removed:
         changes.append(f"removed {removed} duplicated faces")
