@@ -137,7 +137,8 @@ def _checked_union(vertices, faces, unit, out_vertices, out_faces, origin, offse
         moved[k] = grid.distance_up(point, rounded[k])
     mapped[new] = vertices.shape[0] + np.arange(new.size)       # numbered after the old vertices, for now
     united = mapped[out_faces]
-    moves, defect = _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path)
+    approx = (np.vstack([vertices, rounded]).tolist(), np.concatenate([np.zeros(vertices.shape[0]), moved]).tolist())
+    moves, defect = _verify(grid, faces, out_faces, united, origin, exact, corners, approx, unit, path)
     shifted = np.zeros(vertices.shape[0] + new.size)
     shifted[mapped[new]] = moved
     for vertex, outside in moves.items():
@@ -318,7 +319,7 @@ def _three_planes(p1, p2, p3):
     return (tuple(sign * (d1 * c23[k] + d2 * c31[k] + d3 * c12[k]) for k in range(3)), sign * det)
 
 
-def _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path):
+def _verify(grid, faces, out_faces, united, origin, exact, corners, approx, unit, path):
     """Closed and consistently wound; each output triangle in its original one's plane, wound alike, with its
     corners (original vertices and union corners) inside that triangle.
 
@@ -328,7 +329,8 @@ def _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path):
     vertex moved by ``ε`` (returned per vertex), a backward sliver of area
     ``a`` changes any integral by at most that of a cone ``2 a · size / 3``
     (returned as a volume).  Anything beyond :data:`_SLACK` of the part's
-    size is refused.
+    size is refused.  Signs are decided in floats where a certified margin
+    allows (:class:`_Filter`), else in integers.
 
     Returns
     -------
@@ -345,25 +347,74 @@ def _verify(grid, faces, out_faces, united, origin, exact, corners, unit, path):
     for t in np.flatnonzero(~unchanged).tolist():
         face = faces[origin[t]].tolist()
         plane = grid.plane(face)
-        corners_abc = [grid.original(i)[0] for i in face]
+        signs = _Filter(approx, face, plane[0])
         points = [exact[o] if o in exact else grid.original(u)
                   for o, u in zip(out_faces[t].tolist(), united[t].tolist())]
         for o, u, point in zip(out_faces[t].tolist(), united[t].tolist(), points):
-            if not _on_plane(plane, point):
-                _refuse(f"a triangle from original face {int(origin[t])} leaves its plane", unit, path)
             if (o in exact and o not in corners) or (o not in exact and u in face):
-                continue                     # free along its crease or fan; or a corner of the face itself
-            outside = grid.outside(point, corners_abc, plane[0])
+                continue       # free along its crease or fan (on its planes by construction); a corner of the face
+            if o not in exact and not _on_plane(plane, point):
+                _refuse(f"a triangle from original face {int(origin[t])} leaves its plane", unit, path)
+            if signs.inside(u):
+                continue
+            outside = grid.outside(point, [grid.original(i)[0] for i in face], plane[0])
             if outside > _SLACK * size:
                 _refuse(f"a triangle from original face {int(origin[t])} leaves that face", unit, path)
             if outside:
                 moves[u] = max(moves.get(u, 0.0), outside)
+        if signs.wound_along(united[t].tolist()):
+            continue
         area = grid.signed_area(points, plane[0])
         if area < 0:
             if -area > _SLACK * size * size:
                 _refuse(f"a triangle from original face {int(origin[t])} is wound against it", unit, path)
             defect += 2.0 * -area * size / 3.0
     return moves, defect
+
+
+class _Filter:
+    """Signs decided in floats with a certified margin, for one original face.
+
+    ``approx`` holds each vertex's float coordinates and how far (at most)
+    the exact point is from them (Python lists: the arithmetic here is on a
+    few numbers at a time).  The face's unit normal comes from its exact
+    integer normal, rounded (relative error a few u).  A sign is given only
+    when the float value clears its bound: rounding of the products (24 u of
+    the operands' sizes, generous) plus what the vertices' distances from
+    their exact places can change.
+    """
+
+    def __init__(self, approx, face, normal):
+        self.points, self.moved = approx
+        shift = max(max(abs(c).bit_length() for c in normal) - 60, 0)
+        unit = [float(c >> shift) for c in normal]
+        length = math.sqrt(_dot(unit, unit))
+        self.normal = [c / length for c in unit]
+        self.face = [self.points[i] for i in face]
+
+    def inside(self, vertex):
+        """True when the vertex is certainly strictly inside the face (on the inner side of each edge)."""
+        x, slack = self.points[vertex], self.moved[vertex]
+        a, b, c = self.face
+        for p, q in ((a, b), (b, c), (c, a)):
+            edge, arm = _sub(q, p), _sub(x, p)
+            span = math.sqrt(_dot(edge, edge))
+            bound = 24 * _U * span * math.sqrt(_dot(arm, arm)) + slack * span * (1 + 1e-9)
+            if not _dot(_cross(edge, arm), self.normal) > bound:
+                return False
+        return True
+
+    def wound_along(self, triangle):
+        """True when the triangle is certainly wound along the face's normal."""
+        a, b, c = (self.points[i] for i in triangle)
+        e1, e2 = _sub(b, a), _sub(c, a)
+        l1, l2 = math.sqrt(_dot(e1, e1)), math.sqrt(_dot(e2, e2))
+        moved = [self.moved[i] for i in triangle]
+        bound = (24 * _U * l1 * l2 + 2 * sum(moved) * (l1 + l2) + 4 * max(moved) ** 2) * (1 + 1e-9)
+        return _dot(_cross(e1, e2), self.normal) > bound
+
+
+_U = 2.0 ** -53
 
 
 # What manifold's float decisions may leave, relative to the part's size (lengths; areas its square).
