@@ -11,6 +11,7 @@ setup(
         Extension(
             "massprops.core._intersect",
             ["massprops/core/_intersect.c"],
+            depends=["massprops/core/predicates.h"],
             # Contracting a*b + c into one fused operation would change the roundings the
             # predicates' error bounds are derived for.
             extra_compile_args=(["-O2", "-ffp-contract=off", "-fno-fast-math", "-pthread"] if _POSIX

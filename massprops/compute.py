@@ -256,7 +256,7 @@ def _overlap(solid, moments):
 
 
 def _solid(mesh, labels, n_shells, **options):
-    from .mesh.solid import solid_of
+    from .mesh.shells import solid_of
     return solid_of(mesh, labels, n_shells, **options)
 
 

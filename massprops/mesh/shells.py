@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshGeometryError
-from .solid import Solid, refuse_inside_out, refuse_self_intersection, shell_six_volumes, swept_volume
+from .solid import (SELF_INTERSECTION_UP_TO, Solid, refuse_inside_out, refuse_self_intersection, shell_six_volumes,
+                    swept_volume)
 
-__all__ = ["resolve_shells"]
+__all__ = ["solid_of", "resolve_shells"]
 
 
 def _geometry(vertices):
@@ -34,8 +35,33 @@ def _self_checked(geometry, faces, labels, n_shells, path):
         refuse_self_intersection(found.examples, path)
 
 
+def solid_of(mesh, labels, n_shells, *, path=None, repair=False, self_intersection=None, copies=None):
+    """The solid ``mesh`` bounds, for a mesh that passed :func:`massprops.mesh.surface.check_shells`.
+
+    Parameters
+    ----------
+    mesh : TriangleMesh
+        Closed, consistently wound, repeated faces already resolved.
+    labels : ndarray, shape (m,), int
+        Shell of each face; ``n_shells`` of them.
+    repair : bool
+        Turn shells wound inside out (inward, outside every other shell) outward instead of refusing.
+    self_intersection : bool or None
+        Look for faces of one shell that cross; None: up to :data:`SELF_INTERSECTION_UP_TO` faces.
+    copies : ndarray, shape (k, 3), optional
+        Faces dropped as repeated copies (:func:`without_repeated_faces`): their volume counts in the overlap.
+
+    Returns
+    -------
+    Solid
+    """
+    faces = mesh.faces
+    check_self = (faces.shape[0] <= SELF_INTERSECTION_UP_TO) if self_intersection is None else bool(self_intersection)
+    return resolve_shells(mesh, labels, n_shells, check_self=check_self, path=path, repair=repair, copies=copies)
+
+
 def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=False, copies=None):
-    """See :func:`massprops.mesh.solid.solid_of` (which chooses ``check_self``).
+    """See :func:`solid_of` (which chooses ``check_self``).
 
     ``copies``: faces dropped as repeated copies (their volume counts in the overlap).
     """

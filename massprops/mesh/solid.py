@@ -1,8 +1,9 @@
 """What solid a closed mesh describes: the points of positive winding number.
 
 The SPEC ("What solid a mesh describes") fixes the semantics; this module
-decides, for a mesh that passed :func:`massprops.mesh.surface.check_shells`, which
-faces bound that region, and says what it resolved on the way:
+decides (with :func:`massprops.mesh.shells.solid_of`, the entry point), for
+a mesh that passed :func:`massprops.mesh.surface.check_shells`, which faces
+bound that region, and says what it resolved on the way:
 
 * **Repeated faces** (the same three vertices after welding): copies with
   the same orientation count once (a body written twice), a face and its
@@ -41,8 +42,8 @@ from ..core.grouping import group_ids
 from ..core.integrate import reference_frame
 from ..core.topology import face_components
 
-__all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "without_repeated_faces", "solid_of",
-           "swept_volume", "widened", "overlap_warning"]
+__all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "without_repeated_faces",
+           "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
 
 # By default the self-intersection check runs on meshes up to this many faces: there it costs at most about
 # a fifth of `massprops props` end to end; at 200k-300k faces a third or more, on the 1.31M icosphere half
@@ -209,32 +210,6 @@ def shell_six_volumes(vertices, faces, labels, n_shells):
     bounds = (bounds + gamma(faces.shape[0] + 2) * (absolute + bounds)) * (1 + 4 * gamma(4))
     factor = math.ldexp(1.0, 3 * scale_exp)
     return sums * factor, bounds * factor
-
-
-def solid_of(mesh, labels, n_shells, *, path=None, repair=False, self_intersection=None, copies=None):
-    """The solid ``mesh`` bounds, for a mesh that passed :func:`massprops.mesh.surface.check_shells`.
-
-    Parameters
-    ----------
-    mesh : TriangleMesh
-        Closed, consistently wound, repeated faces already resolved.
-    labels : ndarray, shape (m,), int
-        Shell of each face; ``n_shells`` of them.
-    repair : bool
-        Turn shells wound inside out (inward, outside every other shell) outward instead of refusing.
-    self_intersection : bool or None
-        Look for faces of one shell that cross; None: up to :data:`SELF_INTERSECTION_UP_TO` faces.
-    copies : ndarray, shape (k, 3), optional
-        Faces dropped as repeated copies (:func:`without_repeated_faces`): their volume counts in the overlap.
-
-    Returns
-    -------
-    Solid
-    """
-    from .shells import resolve_shells
-    faces = mesh.faces
-    check_self = (faces.shape[0] <= SELF_INTERSECTION_UP_TO) if self_intersection is None else bool(self_intersection)
-    return resolve_shells(mesh, labels, n_shells, check_self=check_self, path=path, repair=repair, copies=copies)
 
 
 def swept_volume(points, faces, moved_vertices, moved):
