@@ -18,7 +18,7 @@ __all__ = ["mass_properties"]
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, max_unpacked=None):
+                    density_field=None, density_map=None, shell=None, max_unpacked=None, self_intersection=None):
     """Mass properties of a solid, with a rigorous error bound on every number.
 
     Parameters
@@ -38,12 +38,14 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     mass : float, optional
         Total mass instead of a density.
     unit : {"m", "cm", "mm", "um", "in", "ft"}, optional
-        The mesh's length unit; every output is then SI (m, kg, kg·m²).
+        The mesh's length unit; every output is then SI (m, kg, kg·m²).  A
+        file that declares its unit (3MF, COLLADA) gives it by default.
     pose : Pose, optional
         Where the part sits: a local point ``x'`` is at ``x = A x' + t``.
     repair : bool
-        Re-orient faces, remove duplicates and close small holes instead of
-        refusing the mesh; what changed is listed in ``Result.warnings``.
+        Re-orient faces, remove duplicates, close holes and turn inside-out
+        shells outward instead of refusing the mesh; what changed is listed
+        in ``Result.warnings``.
     only : str or iterable of str, optional
         Quantities wanted: ``"volume"``, ``"mass"``, ``"surface_area"``,
         ``"center_of_mass"``, ``"inertia"``, ``"principal"`` (one name, a
@@ -57,6 +59,11 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     max_unpacked : int, optional
         Bytes an archive (3MF) may unpack to; default 100 times its size, at
         least 64 MiB.
+    self_intersection : bool, optional
+        Check that no shell intersects itself (a refusal if one does): True
+        always, False never, None (default) up to 100,000 faces
+        (:data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`).
+        ``checks["self_intersection"]`` says ``"none"`` or ``"not checked"``.
 
     Returns
     -------
@@ -85,7 +92,7 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
         return _scene_result(source, density=density, unit=unit, pose=pose, repair=repair, only=only)
     return compute.mass_properties(source, density=density, mass=mass, unit=unit, pose=pose, repair=repair,
                                    only=only, density_field=density_field, density_map=density_map, shell=shell,
-                                   max_unpacked=max_unpacked)
+                                   max_unpacked=max_unpacked, self_intersection=self_intersection)
 
 
 def _is_trimesh_scene(source):

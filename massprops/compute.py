@@ -7,15 +7,17 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+
+import numpy as np
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 from . import core as _core
 from .frames import Pose
 from .errors import ArgumentTypeError, MassPropsError, OptionError
 from .mesh.arrays import as_mesh, is_path
-from .mesh.surface import TriangleMesh, check_mesh
-from .properties import MassProperties
+from .mesh.surface import TriangleMesh
+from .properties import MassProperties, unit_factor
 from .resolution import annotate
 
 __all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities"]
@@ -70,7 +72,7 @@ class Result:
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, max_unpacked=None):
+                    density_field=None, density_map=None, shell=None, max_unpacked=None, self_intersection=None):
     """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
     The pipeline behind :func:`massprops.mass_properties` (which also takes
@@ -91,16 +93,34 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
         mesh = read(path, max_unpacked=max_unpacked)
     else:
         mesh = as_mesh(source)
+    unit, unit_note = _length_unit(mesh, unit)
     try:
         if shell is not None or density_field is not None or density_map is not None \
                 or not isinstance(mesh, TriangleMesh):
-            return _other_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
-                                 repair=repair, density_field=density_field, density_map=density_map,
-                                 shell=shell)
-        return _mesh_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
-                            repair=repair)
+            result = _other_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
+                                   repair=repair, density_field=density_field, density_map=density_map,
+                                   shell=shell)
+        else:
+            result = _mesh_result(mesh, path, start, order, density=density, mass=mass, unit=unit, pose=pose,
+                                  repair=repair, self_intersection=self_intersection)
     except MassPropsError as exc:
         raise exc if exc.path or path is None else exc.with_path(path)
+    if unit_note:
+        result = replace(result, warnings=(*result.warnings, unit_note))
+    return result
+
+
+def _length_unit(mesh, unit):
+    """The unit to use: the one given, else the one the file declares; and a note when the file declares one."""
+    declared = getattr(mesh, "unit", None)
+    if declared is None:
+        return unit, None
+    if unit is None:
+        return declared, (f"the file gives its length unit ({declared}): results are in SI units (m, kg), "
+                          "density in kg/m³; a unit given overrides it")
+    if unit != declared:
+        return unit, f"the file gives its length unit as {declared}; the unit given, {unit}, overrides it"
+    return unit, None
 
 
 def _other_result(mesh, path, start, order, *, shell, density_field, density_map, **material):
@@ -123,39 +143,134 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
                   source_dtype=str(getattr(mesh, "source_dtype", "float64")))
 
 
-def checked_moments(mesh, *, path=None, order=2, repair=False):
-    """Repair (on request), check and integrate a mesh; an inward surface is flipped.
+def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection=None):
+    """Repair (on request), check, resolve the solid and integrate a mesh.
+
+    The solid is the region of positive winding number (:mod:`massprops.mesh.solid`):
+    repeated faces, zero-volume, nested and overlapping shells are resolved
+    and said so; an inward surface is flipped.
 
     Returns
     -------
     (Moments, TriangleMesh, dict, list of str)
         Outward moments, the mesh integrated, the checks, and the warnings.
     """
-    warnings = []
+    if not repair:
+        return _checked_moments(mesh, path=path, order=order, repair=False, self_intersection=self_intersection)
+    from .mesh.repair import after_repair
+    try:
+        return _checked_moments(mesh, path=path, order=order, repair=True, self_intersection=self_intersection)
+    except MassPropsError as exc:
+        raise after_repair(exc) from None
+
+
+def _checked_moments(mesh, *, path, order, repair, self_intersection):
+    from .mesh.solid import without_unused_vertices
+
+    mesh = without_unused_vertices(mesh)
+    warnings = list(mesh.notes)
     if repair:
         from .mesh.repair import repair_mesh
-        mesh, changes = repair_mesh(mesh)
+        mesh, changes = repair_mesh(mesh, path=path)
         warnings += changes
-    checks = check_mesh(mesh, path=path)
-    moments = _core.integrate(mesh.vertices, mesh.faces, order=order)
-    orientation = "outward"
-    if moments.det_sum < 0:
-        moments = moments.negated()
-        orientation = "inward, flipped"
-        warnings.append("faces are wound inward (normals point into the solid); flipped them")
+    # The compiled core uses every core inside each step, so the steps run one after another.
+    mesh, checks, labels, welded, repeated, copies = _closed(mesh, path, warnings)
+    solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
+                   self_intersection=self_intersection, copies=copies)
+    moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order)
+    warnings += solid.warnings
+    moments, orientation = _outward(moments, solid, warnings)
+    moments = _widened(moments, solid, welded, order)
+    overlap, overlap_warning = _overlap(solid, moments)
+    if overlap_warning:
+        warnings.append(overlap_warning)
     check_dict = checks.as_dict()
+    check_dict.update(repeated)
+    check_dict.update(solid.checks)
+    check_dict["overlap"] = overlap
     check_dict["orientation"] = orientation
     check_dict["refined_faces"] = moments.refined_faces
-    return moments, mesh, check_dict, warnings
+    if welded is not None:
+        check_dict["welded_vertices"] = welded.count
+        warnings.append(f"welded {welded.count} vertices that differ from others by at most "
+                        f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
+                        "include the move")
+    return moments, solid.mesh, check_dict, warnings
 
 
-def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair):
-    moments, mesh, check_dict, warnings = checked_moments(mesh, path=path, order=order, repair=repair)
+def _outward(moments, solid, warnings):
+    """Moments of the outward surface, and the orientation found (a warning when it was flipped)."""
+    if not (solid.flipped or moments.det_sum < 0):
+        return moments, "outward"
+    warnings.append("faces are wound inward (normals point into the solid); flipped them")
+    return (moments if solid.flipped else moments.negated()), "inward, flipped"
+
+
+def _closed(mesh, path, warnings):
+    """Check the mesh and resolve repeated faces; a surface open only along seams of noise is welded closed.
+
+    Returns the mesh, its checks and shell labels, the :class:`Welded` (None
+    when not welded), the repeated-face checks and the copies dropped.
+    """
+    from .errors import OpenMeshError
+    from .mesh.solid import without_repeated_faces
+    from .mesh.surface import check_shells
+    welded = None
+    try:
+        checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
+    except OpenMeshError as refusal:
+        from .mesh.near_weld import weld_noise          # open, unless only noise separates its seams
+        welded = weld_noise(mesh, path=path, refusal=refusal)
+        mesh = welded.mesh
+        checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
+    sizes = np.bincount(labels) if checks.shells > 1 else np.array([mesh.faces.shape[0]])
+    if two_faces_an_edge and not np.any(sizes == 2):
+        return mesh, checks, labels, welded, {"duplicate_shells": 0, "duplicate_faces": 0}, None
+    # Faces may repeat (a body written twice, a face and its reverse): resolve them, then check again.
+    reduced, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
+    warnings += repeat_warnings
+    if reduced is not mesh:
+        mesh = reduced
+        checks, labels, _ = check_shells(mesh, path=path)
+    return mesh, checks, labels, welded, repeated, copies
+
+
+def _overlap(solid, moments):
+    from .mesh.solid import overlap_warning
+    return overlap_warning(solid, moments)
+
+
+def _solid(mesh, labels, n_shells, **options):
+    from .mesh.shells import solid_of
+    return solid_of(mesh, labels, n_shells, **options)
+
+
+def _widened(moments, solid, welded, order):
+    """The moments' bounds widened for rounded union vertices, noise welds and dropped zero-volume shells."""
+    from .mesh.solid import swept_volume, widened
+    swept, reach = solid.swept_volume, 0.0
+    if welded is not None:
+        swept += swept_volume(solid.mesh.vertices, solid.mesh.faces, welded.moved_vertices, welded.moved)
+        reach = float(welded.moved.max())
+    dropped = None
+    if solid.zero_shell_faces.size:
+        dropped = _core.integrate(solid.mesh.vertices, solid.zero_shell_faces, order=order)
+    if not swept and dropped is None:
+        return moments
+    return widened(moments, solid.mesh.vertices, swept=swept, reach=reach, dropped=dropped)
+
+
+def _mesh_result(mesh, path, start, order, *, density, mass, unit, pose, repair, self_intersection):
+    triangles = int(mesh.faces.shape[0])
+    moments, mesh, check_dict, warnings = checked_moments(mesh, path=path, order=order, repair=repair,
+                                                          self_intersection=self_intersection)
     props = MassProperties.from_moments(moments, density=density, mass=mass, unit=unit, pose=pose, path=path)
     props, validity, trust_warnings = annotate(props, mesh, mass_given=mass is not None)
     check_dict.update(validity)
+    if check_dict.get("overlap"):
+        check_dict["overlap"] *= float(unit_factor(unit)) ** 3
     warnings += trust_warnings
-    return Result(file=path or "<mesh>", properties=props, triangles=int(mesh.faces.shape[0]),
+    return Result(file=path or "<mesh>", properties=props, triangles=triangles,
                   checks=check_dict, warnings=tuple(warnings), elapsed_s=time.perf_counter() - start,
                   source_dtype=_dtype_text(mesh.source_dtype))
 

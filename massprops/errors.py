@@ -37,7 +37,9 @@ _FLAGS = frozenset({"repair", "recursive", "resume"})
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
                      "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
                      "omega", "about", "rotate", "translate"})
-OPTION_NAMES = _FLAGS | _VALUED
+# On/off switches with an option each way: {name=True} is --name, {name=False} is --no-name.
+_SWITCHES = frozenset({"self_intersection"})
+OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES
 _PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9]+))?\}")
 STYLES = ("python", "cli")
 
@@ -55,6 +57,8 @@ def _spell(match, style):
         return match.group(0)
     if style == "cli":
         flag = "--" + name.replace("_", "-")
+        if name in _SWITCHES:
+            return flag if value != "False" else "--no-" + flag[2:]
         return flag if value is None else f"{flag} {value}"
     if value is None:
         return f"{name}=True" if name in _FLAGS else name

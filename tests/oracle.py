@@ -7,6 +7,8 @@ sharing no code with :mod:`massprops.core`.
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 from massprops.validation.accuracy import relative_errors
 from massprops.validation.exact import exact_properties  # noqa: F401  (re-exported for tests)
 
@@ -21,3 +23,27 @@ def errors_against(props, exact, size):
     """
     values = {"volume": props.volume, "center_of_mass": props.center_of_mass, "inertia_com": props.inertia_com}
     return relative_errors(values, exact, size)
+
+
+def rational_moments(signed_triangles):
+    """Exact volume, center of mass and inertia about it of signed sets of triangles, one at a time.
+
+    ``signed_triangles``: ``(sign, triangles)`` pairs, corners given as floats
+    or Fractions (so polytopes whose corners no float holds can be added and
+    subtracted: A ∪ B = A + B − A ∩ B).  Slow; small meshes.
+    """
+    volume, first, second = Fraction(0), [Fraction(0)] * 3, [[Fraction(0)] * 3 for _ in range(3)]
+    for sign, triangles in signed_triangles:
+        for corners in triangles:
+            a, b, c = ([Fraction(x) for x in p] for p in corners)
+            det = sign * (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                          + a[2] * (b[0] * c[1] - b[1] * c[0]))
+            s = [a[i] + b[i] + c[i] for i in range(3)]
+            volume += det / 6
+            first = [first[i] + det * s[i] / 24 for i in range(3)]
+            second = [[second[i][j] + det * (s[i] * s[j] + a[i] * a[j] + b[i] * b[j] + c[i] * c[j]) / 120
+                       for j in range(3)] for i in range(3)]
+    center = [f / volume for f in first]
+    central = [[second[i][j] - volume * center[i] * center[j] for j in range(3)] for i in range(3)]
+    trace = sum(central[i][i] for i in range(3))
+    return volume, center, [[(trace if i == j else 0) - central[i][j] for j in range(3)] for i in range(3)]

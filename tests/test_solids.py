@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import filecmp
 import os
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -17,6 +16,7 @@ from massprops.compute import mass_properties
 from massprops.validation.exact import exact_properties
 from massprops.frames import Pose
 from massprops.validation.reference_set import reference_solids
+from oracle import rational_moments
 
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "sample_meshes")
 
@@ -26,21 +26,8 @@ def run(*args):
 
 
 def fraction_oracle(triangles):
-    """Exact volume, first and second moments about the origin, one triangle at a time (slow; small meshes)."""
-    volume, first, second = Fraction(0), [Fraction(0)] * 3, [[Fraction(0)] * 3 for _ in range(3)]
-    for tri in np.asarray(triangles, dtype=np.float64):
-        a, b, c = ([Fraction(float(x)) for x in p] for p in tri)
-        det = (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-               + a[2] * (b[0] * c[1] - b[1] * c[0]))
-        s = [a[i] + b[i] + c[i] for i in range(3)]
-        volume += det / 6
-        first = [first[i] + det * s[i] / 24 for i in range(3)]
-        second = [[second[i][j] + det * (s[i] * s[j] + a[i] * a[j] + b[i] * b[j] + c[i] * c[j]) / 120
-                   for j in range(3)] for i in range(3)]
-    center = [f / volume for f in first]
-    central = [[second[i][j] - volume * center[i] * center[j] for j in range(3)] for i in range(3)]
-    trace = sum(central[i][i] for i in range(3))
-    return volume, center, [[(trace if i == j else 0) - central[i][j] for j in range(3)] for i in range(3)]
+    """Exact volume, center of mass and inertia about it, one triangle at a time (slow; small meshes)."""
+    return rational_moments([(1, np.asarray(triangles, dtype=np.float64).tolist())])
 
 
 def floats(values):

@@ -19,12 +19,17 @@ __all__ = ["expand_inputs"]
 _GLOB_CHARS = re.compile(r"[*?\[]")
 
 
-def _mesh_files_in(directory, recursive):
+def _mesh_files_in(directory, recursive, skipped=None):
     from ..io import EXTENSIONS
     found = []
     for root, dirs, names in os.walk(directory):
         dirs.sort()
-        found += [os.path.join(root, n) for n in sorted(names) if os.path.splitext(n)[1].lower() in EXTENSIONS]
+        for name in sorted(names):
+            extension = os.path.splitext(name)[1].lower()
+            if extension in EXTENSIONS:
+                found.append(os.path.join(root, name))
+            elif skipped is not None:
+                skipped[extension or "(none)"] = skipped.get(extension or "(none)", 0) + 1
         if not recursive:
             break
     return found
@@ -63,7 +68,7 @@ def _identity(path):
     return ("file", info.st_dev, info.st_ino)
 
 
-def expand_inputs(paths, *, recursive=False, duplicates=None):
+def expand_inputs(paths, *, recursive=False, duplicates=None, skipped=None):
     """The mesh files that ``paths`` name, in order, each once.
 
     Parameters
@@ -78,6 +83,9 @@ def expand_inputs(paths, *, recursive=False, duplicates=None):
         Receives ``(name, kept)`` for each name of a file already listed
         under the name ``kept``: ``./a.stl``, ``dir/../a.stl``, a symbolic
         or hard link to it are one file, one row, under the first name met.
+    skipped : dict, optional
+        Filled with ``{extension: count}`` of the files in the folders walked
+        that are not in a format massprops reads.
 
     Raises
     ------
@@ -101,7 +109,7 @@ def expand_inputs(paths, *, recursive=False, duplicates=None):
                 expand(listed, depth + 1)
         elif os.path.isdir(path):
             # a named folder with no mesh files still gets its row, so the report shows the mistake
-            for found in _mesh_files_in(path, recursive) or [path]:
+            for found in _mesh_files_in(path, recursive, skipped) or [path]:
                 add(found)
         elif _GLOB_CHARS.search(path) and not os.path.exists(path):
             matches = sorted(glob.glob(path, recursive=recursive))

@@ -45,6 +45,14 @@ def _report_failures(summary):
         click.echo(f"... and {hidden} more failed files (status=error in the report)", err=True)
 
 
+def _skipped_text(skipped):
+    """``; skipped 1095 .urdf, 12 .mtl (not mesh formats massprops reads)``, or nothing."""
+    if not skipped:
+        return ""
+    counts = sorted(skipped.items(), key=lambda item: (-item[1], item[0]))
+    return "; skipped " + ", ".join(f"{n} {ext}" for ext, n in counts) + " (not mesh formats massprops reads)"
+
+
 def _summary_line(summary):
     line = f"{summary.ok} ok, {summary.failed} failed"
     if summary.unchanged:
@@ -73,9 +81,10 @@ def _summary_line(summary):
 @options.pose_options
 @options.cell_options
 @options.repair_option
+@options.self_intersection_option
 @options.unpack_option
 def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, density, total_mass,
-          unit, rotate, translate, density_field, density_map, shell, repair, max_unpacked):
+          unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
@@ -95,15 +104,16 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
         output = None
     if resume and output is None:
         raise click.UsageError("--resume needs the report file: give it with -o")
-    duplicates = []
+    duplicates, skipped = [], {}
     try:
-        files = batch_lib.expand_inputs(paths, recursive=recursive, duplicates=duplicates)
+        files = batch_lib.expand_inputs(paths, recursive=recursive, duplicates=duplicates, skipped=skipped)
     except MassPropsError as exc:
         raise click.BadParameter(exc.render("cli"), param_hint="PATH") from None
     pose = options.pose_from_options(rotate, translate)
     settings = batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                   density_field=density_field, density_map=density_map, shell=shell,
-                                  max_unpacked=max_unpacked, option_style="cli")
+                                  max_unpacked=max_unpacked, self_intersection=self_intersection,
+                                  option_style="cli")
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet,
                    timeout or None)
     if summary.text is not None:
@@ -116,7 +126,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
         for note in summary.notes:
             click.echo(f"note: {note}", err=True)
         _report_failures(summary)
-        click.echo(_summary_line(summary), err=True)
+        click.echo(_summary_line(summary) + _skipped_text(skipped), err=True)
     options.exit_with(summary.failed)
 
 

@@ -143,9 +143,19 @@ def cell_options(f):
     return f
 
 
+def self_intersection_option(f):
+    """--self-intersection / --no-self-intersection (default: by face count)."""
+    from ..mesh.solid import SELF_INTERSECTION_UP_TO
+    return click.option("--self-intersection/--no-self-intersection", "self_intersection", default=None,
+                        help=f"Check (or not) that no shell crosses itself; by default meshes of up to "
+                             f"{SELF_INTERSECTION_UP_TO:,} faces are checked.  checks.self_intersection says "
+                             "none, found or not checked.")(f)
+
+
 def repair_option(f):
     return click.option("--repair", is_flag=True,
-                        help="Fix winding, remove duplicate faces, close small holes, and say what changed.")(f)
+                        help="Fix winding, remove duplicate faces, close holes, turn inside-out shells outward, and say "
+                             "what changed.")(f)
 
 
 def unpack_option(f):

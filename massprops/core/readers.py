@@ -48,11 +48,13 @@ def read_obj(path):
     Returns
     -------
     vertices : ndarray, shape (k, 3), float64
-        Coordinates as Python's ``float`` reads them.
+        Coordinates as Python's ``float`` reads them; only the vertices faces use.
     faces : ndarray, shape (m, 3), int64
+    ignored : int
+        Vertices no face uses whose coordinates are NaN or infinite (left out).
     """
     try:
-        vertices, faces = _core.read_obj(os.fspath(path))
+        vertices, faces, ignored = _core.read_obj(os.fspath(path))
     except _core.ParseError as error:
         raise MeshFormatError(error.args[0], path=path, fix=error.args[1] or None) from None
-    return np.asarray(vertices), np.asarray(faces)
+    return np.asarray(vertices), np.asarray(faces), ignored

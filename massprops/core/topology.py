@@ -16,7 +16,7 @@ from . import _core
 from .arrays import as_indices
 from .threads import thread_count
 
-__all__ = ["EdgeSummary", "edge_summary", "shells", "FaceGroups", "face_groups", "distinct_faces"]
+__all__ = ["EdgeSummary", "edge_summary", "shells", "FaceGroups", "face_groups", "group_rows", "distinct_faces"]
 
 
 @dataclass(frozen=True)
@@ -138,8 +138,28 @@ class FaceGroups:
 
 def face_groups(faces):
     """Group the faces with the same three vertices (:class:`FaceGroups`)."""
-    labels, first, same, opposite = _core.face_groups(as_indices(faces))
+    labels, first, same, opposite = _core.row_groups(as_indices(faces), 3)
     return FaceGroups(np.asarray(labels), np.asarray(first), same, opposite)
+
+
+def group_rows(rows):
+    """Group rows of vertex indices that hold the same set of indices (quadrilaterals, cells...).
+
+    Parameters
+    ----------
+    rows : array_like, shape (m, k), int, k <= 8
+
+    Returns
+    -------
+    labels : ndarray, shape (m,), int64
+        Each row's group, numbered in order of each group's first row.
+    first : ndarray, shape (g,), int64
+        The first row of each group (ascending).
+    """
+    rows = np.asarray(rows)
+    columns = rows.shape[1] if rows.ndim == 2 else 3
+    labels, first, _, _ = _core.row_groups(as_indices(rows, columns, "rows"), columns)
+    return np.asarray(labels), np.asarray(first)
 
 
 def distinct_faces(faces):

@@ -35,7 +35,7 @@ def weld_corners(corners):
     corners = np.ascontiguousarray(corners, dtype=dtype)
     if corners.shape[-1:] != (3,) or corners.size % 9:
         raise ValueError(f"corners: expected shape (m, 3, 3) or (3m, 3), got {corners.shape}")
-    vertices, faces = _core.weld_corners(corners, thread_count())
+    vertices, faces, _ = _core.weld_corners(corners, thread_count())
     return np.asarray(vertices), np.asarray(faces)
 
 
@@ -52,11 +52,13 @@ def weld_indexed(vertices, faces):
     vertices : ndarray, shape (k, 3), float64
         The distinct points faces use, in order of first use.
     faces : ndarray, shape (m, 3), int64
+    ignored : int
+        Vertices no face uses whose coordinates are NaN or infinite (left out like every unused one).
 
     Raises
     ------
     IndexError
         A face refers to a vertex that does not exist.
     """
-    welded, renumbered = _core.weld_indexed(as_points(vertices), as_indices(faces))
-    return np.asarray(welded), np.asarray(renumbered)
+    welded, renumbered, ignored = _core.weld_indexed(as_points(vertices), as_indices(faces))
+    return np.asarray(welded), np.asarray(renumbered), ignored

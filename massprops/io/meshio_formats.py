@@ -146,7 +146,7 @@ def _surface(mesh, points, path):
     if not triangles:
         raise MeshFormatError("the file holds no volume cells and no surface cells", path=path,
                               fix="export tetrahedra, hexahedra, wedges, pyramids, or a closed surface")
-    return TriangleMesh(points, np.vstack(triangles))
+    return TriangleMesh.from_indexed(points, np.vstack(triangles))
 
 
 register_format("meshio", EXTENSIONS, read)

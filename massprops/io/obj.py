@@ -3,7 +3,10 @@
 One reader with one behaviour (:func:`massprops.core.read_obj`): ``v`` and
 ``f`` statements, indented or not, corners ``i``, ``i/t``, ``i//n``,
 ``i/t/n``, negative indices, polygons fanned; coordinates exactly as
-Python's ``float`` reads them; errors name their line.
+Python's ``float`` reads them; errors name their line.  Vertices are welded
+by exact coordinates (a closed surface that repeats its corners per face,
+for per-face normals or UV seams, is closed) and vertices no face uses take
+no part.
 """
 
 from __future__ import annotations
@@ -11,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import read_obj
-from ..mesh.surface import TriangleMesh
+from ..mesh.surface import TriangleMesh, unused_note
 from .registry import register_format
 
 
 def read(path):
-    vertices, faces = read_obj(path)
-    return TriangleMesh(vertices, faces)
+    vertices, faces, ignored = read_obj(path)
+    return TriangleMesh(vertices, faces, notes=unused_note(ignored))
 
 
 def write(path, vertices, faces, comment=""):

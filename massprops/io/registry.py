@@ -11,7 +11,7 @@ import os
 from ..errors import MeshFormatError, MeshReadError
 from .inputs import check_archive, check_input, check_no_holes
 
-__all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIONS"]
+__all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIONS", "UNSUPPORTED"]
 
 _READERS = {}
 _TEXT = set()
@@ -34,15 +34,49 @@ def _extension(path):
     return os.path.splitext(str(path))[1].lower()
 
 
+# Formats users have that massprops does not read: what each is, and how to get a mesh from it.
+UNSUPPORTED = {
+    ".step": ("a STEP CAD model (B-rep, not a mesh)", "export STL or 3MF from the CAD tool, or mesh it with gmsh"),
+    ".stp": ("a STEP CAD model (B-rep, not a mesh)", "export STL or 3MF from the CAD tool, or mesh it with gmsh"),
+    ".iges": ("an IGES CAD model (B-rep, not a mesh)", "export STL from the CAD tool, or mesh it with gmsh"),
+    ".igs": ("an IGES CAD model (B-rep, not a mesh)", "export STL from the CAD tool, or mesh it with gmsh"),
+    ".brep": ("an OpenCASCADE B-rep model", "mesh it with gmsh or FreeCAD and export STL"),
+    ".sldprt": ("a SolidWorks part", "export STL or 3MF from SolidWorks"),
+    ".ipt": ("an Inventor part", "export STL or 3MF from Inventor"),
+    ".f3d": ("a Fusion 360 design", "export STL or 3MF from Fusion 360"),
+    ".fbx": ("an Autodesk FBX scene", "convert it to GLB (Blender, or FBX2glTF)"),
+    ".blend": ("a Blender file", "export GLB or STL from Blender"),
+    ".3ds": ("a 3D Studio scene", "convert it to GLB or OBJ (Blender)"),
+    ".dxf": ("a DXF drawing", "export a mesh (STL) from the CAD tool"),
+    ".usd": ("a USD scene", "convert it to GLB (usd2gltf, Blender)"),
+    ".usda": ("a USD scene", "convert it to GLB (usd2gltf, Blender)"),
+    ".usdc": ("a USD scene", "convert it to GLB (usd2gltf, Blender)"),
+    ".usdz": ("a USDZ scene", "convert it to GLB (usd2gltf, Blender)"),
+    ".wrl": ("a VRML scene", "convert it to GLB or STL (Blender, MeshLab)"),
+    ".x3d": ("an X3D scene", "convert it to GLB or STL (Blender, MeshLab)"),
+    ".urdf": ("a URDF robot description", "use `massprops robot props`"),
+    ".sdf": ("an SDF robot or world description", "use `massprops robot props`"),
+    ".xml": ("an XML file (an MJCF robot?)", "use `massprops robot props` for MJCF"),
+    ".xacro": ("a xacro robot description", "use `massprops robot props`"),
+    ".mtl": ("an OBJ material library (no geometry)", "give the .obj file"),
+    ".toml": ("a TOML file (a scene?)", "use `massprops scene`"),
+    ".png": ("an image", "give a mesh file"),
+    ".jpg": ("an image", "give a mesh file"),
+}
+
+
 def reader_for(path):
     """The ``(format name, reader)`` registered for ``path``'s extension."""
     ext = _extension(path)
     try:
         return _READERS[ext]
     except KeyError:
+        if ext in UNSUPPORTED:
+            what, how = UNSUPPORTED[ext]
+            raise MeshFormatError(f"{ext} is {what}, which massprops does not read", path=path, fix=how) from None
         known = ", ".join(sorted(_READERS))
         raise MeshFormatError(f"unknown mesh format {ext or '(no extension)'!r}", path=path,
-                              fix=f"pick one of {known}") from None
+                              fix=f"convert it to STL, OBJ, PLY or GLB (or another of {known})") from None
 
 
 def check_mesh_file(path, *, max_unpacked=None):

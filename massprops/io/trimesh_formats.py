@@ -5,7 +5,10 @@ removal of faces), so coordinates arrive as stored; a scene is flattened with
 its node transforms applied.  trimesh runs behind :mod:`massprops.io.boundary`;
 a PLY header's element counts are checked against the file's size first, so a
 header that lies is named as such, and the files a glTF names must be regular
-files as long as it says.
+files as long as it says.  Vertices are then welded by exact coordinates, as
+for every format, so triangle soups (a PLY of separate triangles, a GLB with
+per-face normals) are closed.  A 3MF file's ``unit`` becomes the mesh's
+declared length unit.
 """
 
 from __future__ import annotations
@@ -20,15 +23,18 @@ from .boundary import third_party
 from .inputs import check_input, file_size_text
 from .registry import register_format
 
-__all__ = ["load_trimesh", "read", "check_ply_header", "check_gltf_resources"]
+__all__ = ["load_trimesh", "read", "flattened", "check_ply_header", "check_gltf_resources"]
+
+# 3MF's units (the specification's names) as massprops' unit names.
+_3MF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
               "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
 _PLY_HEADER_MAX = 1 << 16
 
 
-def load_trimesh(path):
-    """``trimesh.load`` with processing off, behind the reader boundary."""
+def load_trimesh(path, **kwargs):
+    """``trimesh.load`` with processing off, behind the reader boundary (``kwargs`` passed on)."""
     try:
         import trimesh
     except ImportError:  # pragma: no cover - trimesh is a core dependency
@@ -38,7 +44,7 @@ def load_trimesh(path):
         check_ply_header(path)
     elif path.lower().endswith((".gltf", ".glb")):
         check_gltf_resources(path)
-    return third_party(path, "trimesh", trimesh.load, path, process=False, maintain_order=True)
+    return third_party(path, "trimesh", trimesh.load, path, process=False, maintain_order=True, **kwargs)
 
 
 def _gltf_json(path):
@@ -137,8 +143,8 @@ def check_ply_header(path):
                 fix="the file is truncated or its header is wrong; export it again")
 
 
-def read(path):
-    loaded = load_trimesh(path)
+def flattened(loaded, path):
+    """Vertices (float64) and faces of a trimesh mesh or scene, node transforms applied."""
     if hasattr(loaded, "to_geometry"):
         loaded = third_party(path, "trimesh", loaded.to_geometry) if len(loaded.geometry) else None
     elif hasattr(loaded, "dump") and not hasattr(loaded, "faces"):
@@ -146,8 +152,25 @@ def read(path):
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise MeshFormatError("the file holds no triangles", path=path, fix="export the part as a closed surface")
-    return TriangleMesh(np.asarray(loaded.vertices, dtype=np.float64).copy(),
-                        np.asarray(faces, dtype=np.int64).copy())
+    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+
+
+def _declared_unit(loaded, path):
+    """The 3MF ``unit`` (default millimeter) as a massprops unit name, and a note; else (None, None)."""
+    if os.path.splitext(path)[1].lower() != ".3mf":
+        return None, None
+    name = str((getattr(loaded, "metadata", None) or {}).get("units") or "millimeter").lower()
+    unit = _3MF_UNITS.get(name)
+    if unit is None:
+        raise MeshFormatError(f"unknown 3MF unit {name!r}", path=path, fix=f"use one of {', '.join(_3MF_UNITS)}")
+    return unit, f"the file declares its length unit: {name}"
+
+
+def read(path):
+    loaded = load_trimesh(path)
+    unit, note = _declared_unit(loaded, path)
+    vertices, faces = flattened(loaded, path)
+    return TriangleMesh.from_indexed(vertices, faces, notes=(note,) if note else (), unit=unit)
 
 
 register_format("trimesh", [".ply", ".glb", ".gltf", ".3mf"], read)

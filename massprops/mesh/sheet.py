@@ -105,5 +105,6 @@ def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None
                                              path=path)
     checks = {"closed": boundary_edges == 0 and not edges.odd, "orientation": "not needed (shell)",
               "shells": shells(mesh.faces, mesh.vertices.shape[0], labels=False)[1], "boundary_edges": boundary_edges,
-              "duplicate_faces": 0, "shell_thickness": thickness}
+              "duplicate_faces": 0, "shell_thickness": thickness,
+              "self_intersection": "not checked"}
     return properties, checks, warnings

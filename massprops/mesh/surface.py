@@ -16,11 +16,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core import distinct_faces, edge_summary, face_groups, shell_determinants, shells, weld_corners
+from ..core import distinct_faces, edge_summary, face_groups, shells, weld_corners, weld_indexed
 from ..errors import MeshGeometryError, OpenMeshError, WindingError
 from ..frames import matvec
 
-__all__ = ["TriangleMesh", "MeshChecks", "check_mesh", "distinct_faces"]
+__all__ = ["TriangleMesh", "MeshChecks", "check_mesh", "check_shells", "distinct_faces", "unused_note"]
+
+
+def unused_note(ignored):
+    """The note for ``ignored`` vertices that no face uses and whose coordinates are not finite (or none)."""
+    return (f"ignored {ignored} vertices with NaN or infinite coordinates that no face uses",) if ignored else ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,6 +46,8 @@ class TriangleMesh:
     vertices: np.ndarray
     faces: np.ndarray
     source_dtype: np.dtype = field(default=np.dtype(np.float64))
+    notes: tuple = ()
+    unit: str | None = None
 
     @classmethod
     def from_triangles(cls, triangles, *, source_dtype=None):
@@ -69,6 +76,29 @@ class TriangleMesh:
         """
         return cls.from_triangles(corners, source_dtype=source_dtype)
 
+    @classmethod
+    def from_indexed(cls, vertices, faces, *, source_dtype=None, notes=(), unit=None):
+        """Weld an indexed mesh by exact coordinates, as :meth:`from_triangles` welds a soup.
+
+        Vertices no face uses are left out (a non-finite one with a note);
+        vertices with equal coordinates become one, so a surface that repeats
+        its corners per face (per-face normals, UV seams) is closed.
+
+        Parameters
+        ----------
+        vertices : ndarray, shape (n, 3)
+            Coordinates, local frame.
+        faces : ndarray, shape (m, 3), int
+            Vertex indices; out-of-range indices are left for :func:`check_mesh` to report.
+        """
+        vertices = np.asarray(vertices)
+        faces = np.asarray(faces, dtype=np.int64)
+        dtype = np.dtype(source_dtype or (vertices.dtype if vertices.dtype.kind == "f" else np.float64))
+        if faces.size and (faces.min() < 0 or faces.max() >= vertices.shape[0]):
+            return cls(np.asarray(vertices, dtype=np.float64), faces, dtype, tuple(notes), unit)
+        welded, renumbered, ignored = weld_indexed(vertices, faces)
+        return cls(welded, renumbered, dtype, (*notes, *unused_note(ignored)), unit)
+
     @property
     def triangles(self):
         """ndarray, shape (m, 3, 3): corner coordinates of every face."""
@@ -76,12 +106,17 @@ class TriangleMesh:
 
     def flipped(self):
         """The same surface with every face's winding reversed."""
-        return TriangleMesh(self.vertices, self.faces[:, ::-1].copy(), self.source_dtype)
+        return TriangleMesh(self.vertices, self.faces[:, ::-1].copy(), self.source_dtype, self.notes, self.unit)
 
     def transformed(self, rotation, translation):
         """The mesh with every vertex mapped to ``rotation @ x + translation``."""
         vertices = matvec(rotation, self.vertices) + np.asarray(translation, float)
-        return TriangleMesh(vertices, self.faces, np.dtype(np.float64))
+        return TriangleMesh(vertices, self.faces, np.dtype(np.float64), self.notes, self.unit)
+
+    def with_faces(self, faces, vertices=None):
+        """A mesh of the same kind with other faces (and vertices), keeping the source precision."""
+        return TriangleMesh(self.vertices if vertices is None else vertices, faces, self.source_dtype, self.notes,
+                            self.unit)
 
 
 @dataclass(frozen=True)
@@ -100,34 +135,23 @@ class MeshChecks:
         return dict(self.__dict__)
 
 
-def signed_volumes_by_shell(vertices, faces, shell_labels, n_shells):
-    """Six times the signed volume enclosed by each shell (the integration frame's scaled units; signs matter)."""
-    return shell_determinants(vertices, faces, shell_labels, n_shells)[0]
-
-
-def winding_number(point, triangles):
-    """Generalised winding number of a closed surface about ``point``.
-
-    Van Oosterom & Strackee's solid angle per triangle, summed and divided by
-    4π: an integer for a closed surface and a point off it.
-    """
-    r = triangles - point
-    norms = np.linalg.norm(r, axis=2)
-    a, b, c = r[:, 0], r[:, 1], r[:, 2]
-    numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
-    denominator = (norms[:, 0] * norms[:, 1] * norms[:, 2]
-                   + np.einsum("ij,ij->i", a, b) * norms[:, 2]
-                   + np.einsum("ij,ij->i", a, c) * norms[:, 1]
-                   + np.einsum("ij,ij->i", b, c) * norms[:, 0])
-    return 2.0 * np.arctan2(numerator, denominator).sum() / (4.0 * np.pi)
-
-
 def check_mesh(mesh, path=None):
-    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound.
+    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound (see :func:`check_shells`)."""
+    return check_shells(mesh, path)[0]
+
+
+def check_shells(mesh, path=None):
+    """Check that ``mesh`` bounds a solid: finite, closed, consistently wound; and find its shells.
 
     Returns
     -------
-    MeshChecks
+    checks : MeshChecks
+    labels : ndarray, shape (m,), int64
+        The shell (connected component of faces sharing vertices) of each face.
+    two_faces_an_edge : bool
+        Every edge is used by exactly two faces.  Then no face can repeat
+        another in the same orientation (its edges would be used four times),
+        and a face repeated reversed is a shell of two faces on its own.
 
     Raises
     ------
@@ -148,20 +172,13 @@ def check_mesh(mesh, path=None):
     if not np.isfinite(vertices).all():
         _refuse_non_finite(vertices, faces, path)
     edges = edge_summary(faces, vertices.shape[0])
-    degenerate = edges.degenerate_faces
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
     labels, n_shells = shells(faces, vertices.shape[0])
-    outside = 0
-    if n_shells > 1:
-        outside = _inward_shells_outside(vertices, faces, labels, n_shells)
-        if outside:
-            raise WindingError(
-                f"{outside} of {n_shells} shells are wound inward but lie outside every other shell "
-                "(a separate body turned inside out)", path=path,
-                fix="pass {repair} to orient every shell outward")
+    # Balanced, so every edge is used an even number of times: exactly twice when none is used more.
+    two_faces_an_edge = edges.max_uses <= 2 and edges.collapsed == 0
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
-                      duplicate_faces=0, degenerate_faces=degenerate)
+                      duplicate_faces=0, degenerate_faces=edges.degenerate_faces), labels, two_faces_an_edge
 
 
 def _refuse_non_finite(vertices, faces, path):
@@ -186,17 +203,3 @@ def _refuse_unbalanced(faces, edges, path):
                             fix="close the holes, pass {repair}, or treat it as a sheet with {shell=THICKNESS}")
     raise WindingError(f"faces are wound inconsistently: {edges.unbalanced} edges are traversed twice in the same "
                        "direction", path=path, fix="pass {repair} to orient the faces consistently")
-
-
-def _inward_shells_outside(vertices, faces, labels, n_shells):
-    """Count shells whose sign is opposite to the whole and that no other shell encloses."""
-    volumes = signed_volumes_by_shell(vertices, faces, labels, n_shells)
-    total_sign = np.sign(volumes.sum()) or 1.0
-    outside = 0
-    for shell in np.flatnonzero(np.sign(volumes) == -total_sign):
-        point = vertices[faces[labels == shell][0, 0]]
-        others = vertices[faces[labels != shell]]
-        # Inside an enclosing shell of the whole's orientation, the winding number is ±1.
-        if abs(winding_number(point, others)) < 0.5:
-            outside += 1
-    return outside

@@ -30,6 +30,7 @@ import numpy as np
 from ..core import U as _U, face_groups, integrate, shells, tetra_determinants
 from ..errors import MeshGeometryError, OptionError
 from ..properties import MassProperties
+from .nonplanar import nonplanar_quads
 
 __all__ = ["VolumeMesh", "CELL_FACES", "parse_density_map", "cell_densities", "volume_mass_properties"]
 
@@ -349,9 +350,13 @@ def volume_mass_properties(vmesh, *, density=None, mass=None, unit=None, pose=No
     warnings = list(vmesh.notes)
     if reoriented:
         warnings.append(f"reoriented {reoriented} inverted cells (their node order was mirrored)")
+    bent, nonplanar = nonplanar_quads(vmesh.points, vmesh.blocks, CELL_FACES)
+    if bent:
+        warnings.append(bent)
     checks = {"closed": True, "orientation": "cells positive" + (", some reoriented" if reoriented else ""),
               "shells": shells(surface, points.shape[0], labels=False)[1], "boundary_edges": 0,
               "cells": vmesh.n_cells, "cell_types": vmesh.cell_types(), "tetrahedra": int(tets.shape[0]),
               "inverted_cells": reoriented, "degenerate_cells": 0, "refined_faces": moments.refined_faces,
-              "density": "per cell" if rho is not None else "uniform"}
+              "density": "per cell" if rho is not None else "uniform", "nonplanar_faces": nonplanar,
+              "self_intersection": "not checked"}
     return properties, int(surface.shape[0]), checks, warnings

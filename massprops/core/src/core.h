@@ -99,6 +99,7 @@ struct MeshArrays {
     index_t *faces;           /* m x 3 */
     int64_t m;
     int binary;               /* STL: 1 binary (float32 coordinates), 0 ASCII */
+    int64_t ignored;          /* weld_indexed: vertices no face uses whose coordinates are not finite */
 };
 
 int read_stl(const char *path, int threads, MeshArrays *out, Failure *failure);

@@ -178,7 +178,7 @@ static PyObject *mesh_result(MeshArrays *mesh, int with_binary)
     }
     if (with_binary)
         return Py_BuildValue("(NNO)", vertices, faces, mesh->binary ? Py_True : Py_False);
-    return Py_BuildValue("(NN)", vertices, faces);
+    return Py_BuildValue("(NNL)", vertices, faces, (long long)mesh->ignored);
 }
 
 /* ---- readers and welding ------------------------------------------------------------------ */
@@ -186,7 +186,7 @@ static PyObject *mesh_result(MeshArrays *mesh, int with_binary)
 static PyObject *read_file(PyObject *args, int stl)
 {
     PyObject *path;
-    MeshArrays mesh;
+    MeshArrays mesh = {0};
     Failure failure = {0};
     int status, threads = 1;
     if (!PyArg_ParseTuple(args, stl ? "O&i" : "O&", PyUnicode_FSConverter, &path, &threads))
@@ -213,7 +213,7 @@ static PyObject *core_weld_corners(PyObject *self, PyObject *args)
 {
     PyObject *object;
     Py_buffer view;
-    MeshArrays mesh;
+    MeshArrays mesh = {0};
     Failure failure = {0};
     int kind, status, threads;
     Py_ssize_t count;
@@ -237,7 +237,7 @@ static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
 {
     PyObject *vertex_object, *face_object;
     Py_buffer vertices, faces;
-    MeshArrays mesh;
+    MeshArrays mesh = {0};
     Failure failure = {0};
     int kind, status;
     if (!PyArg_ParseTuple(args, "OO", &vertex_object, &face_object)
@@ -330,39 +330,41 @@ static PyObject *core_shells(PyObject *self, PyObject *args)
     return Py_BuildValue("(NL)", buffer_wrap(labels, 'q', 8, m, 0), (long long)count);
 }
 
-static PyObject *core_face_groups(PyObject *self, PyObject *args)
+static PyObject *core_row_groups(PyObject *self, PyObject *args)
 {
-    PyObject *face_object, *labels_buffer, *first_buffer;
-    Py_buffer faces;
+    PyObject *row_object, *labels_buffer, *first_buffer;
+    Py_buffer rows;
     Py_ssize_t m;
-    int kind, status;
+    int kind, status, columns;
     int64_t *labels, *first, groups = 0, same = 0, opposite = 0;
     Failure failure = {0};
-    if (!PyArg_ParseTuple(args, "O", &face_object) || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+    if (!PyArg_ParseTuple(args, "Oi", &row_object, &columns)
+            || !(kind = get_array(row_object, &rows, ARRAY_I32 | ARRAY_I64, "rows")))
         return NULL;
-    m = faces.len / faces.itemsize / 3;
+    m = columns > 0 ? rows.len / rows.itemsize / columns : 0;
     labels = malloc((size_t)(m > 0 ? m : 1) * sizeof *labels);
     first = malloc((size_t)(m > 0 ? m : 1) * sizeof *first);
     if (!labels || !first) {
         free(labels);
         free(first);
-        PyBuffer_Release(&faces);
+        PyBuffer_Release(&rows);
         return PyErr_NoMemory();
     }
     Py_BEGIN_ALLOW_THREADS
-    status = face_groups(faces.buf, kind == ARRAY_I32, m, labels, first, &groups, &same, &opposite, &failure);
+    status = row_groups(rows.buf, kind == ARRAY_I32, columns, m, labels, first, &groups, &same, &opposite, &failure);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&faces);
+    PyBuffer_Release(&rows);
     if (status) {
         free(labels);
         free(first);
         return raise_failure(&failure, NULL);
     }
     labels_buffer = buffer_wrap(labels, 'q', 8, m, 0);
-    first_buffer = buffer_wrap(first, 'q', 8, (Py_ssize_t)groups, 0);
+    first_buffer = labels_buffer ? buffer_wrap(first, 'q', 8, (Py_ssize_t)groups, 0) : NULL;
     if (!labels_buffer || !first_buffer) {
+        if (!labels_buffer)
+            free(first);
         Py_XDECREF(labels_buffer);
-        Py_XDECREF(first_buffer);
         return NULL;
     }
     return Py_BuildValue("(NNLL)", labels_buffer, first_buffer, (long long)same, (long long)opposite);
@@ -552,12 +554,12 @@ static PyObject *core_shift_is_exact(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
-    {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces)"},
-    {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners, threads) -> (vertices, faces)"},
-    {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces)"},
+    {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces, ignored non-finite unused vertices)"},
+    {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners, threads) -> (vertices, faces, 0)"},
+    {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
-    {"face_groups", core_face_groups, METH_VARARGS, "face_groups(faces) -> (labels, first, same, opposite)"},
+    {"row_groups", core_row_groups, METH_VARARGS, "row_groups(rows, columns) -> (labels, first, same, opposite)"},
     {"integrate", (PyCFunction)(void (*)(void))core_integrate, METH_VARARGS | METH_KEYWORDS,
      "integrate(vertices, faces, reference, scale_exp, radius, order, area, weights, threads, double_double) -> dict"},
     {"tetra_determinants", core_tetra_determinants, METH_VARARGS,

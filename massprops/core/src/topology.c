@@ -365,36 +365,44 @@ int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *l
     return 0;
 }
 
-/* ---- duplicate faces ----------------------------------------------------------------------- */
+/* ---- duplicate faces, and rows of indices in general ------------------------------------------ */
 
-static inline void sorted_triple(const void *faces, int faces32, int64_t f, int64_t t[3], int *odd)
+#define MAX_ROW 8
+
+/* Row r of `columns` indices, sorted; *odd is the parity of the sort's swaps. */
+static inline void sorted_row(const void *rows, int rows32, int columns, int64_t r, int64_t t[MAX_ROW], int *odd)
 {
-    int64_t a = face_index(faces, faces32, 3 * f), b = face_index(faces, faces32, 3 * f + 1),
-            c = face_index(faces, faces32, 3 * f + 2), swap;
-    int swaps = 0;
-    if (a > b) { swap = a; a = b; b = swap; swaps++; }
-    if (b > c) { swap = b; b = c; c = swap; swaps++; }
-    if (a > b) { swap = a; a = b; b = swap; swaps++; }
-    t[0] = a;
-    t[1] = b;
-    t[2] = c;
+    int i, j, swaps = 0;
+    for (i = 0; i < columns; i++)
+        t[i] = face_index(rows, rows32, (int64_t)columns * r + i);
+    for (i = 1; i < columns; i++) {
+        int64_t value = t[i];
+        for (j = i; j > 0 && t[j - 1] > value; j--, swaps++)
+            t[j] = t[j - 1];
+        t[j] = value;
+    }
     *odd = swaps & 1;
 }
 
-static inline uint64_t triple_hash(const int64_t t[3])
+static inline uint64_t row_hash(const int64_t t[MAX_ROW], int columns)
 {
-    uint64_t h = (uint64_t)t[0] * 0x9E3779B97F4A7C15ULL;
-    h = (h ^ (uint64_t)t[1]) * 0xBF58476D1CE4E5B9ULL;
-    h = (h ^ (uint64_t)t[2]) * 0x94D049BB133111EBULL;
+    uint64_t h = 0x9E3779B97F4A7C15ULL;
+    int i;
+    for (i = 0; i < columns; i++)
+        h = (h ^ (uint64_t)t[i]) * 0xBF58476D1CE4E5B9ULL;
     return h ^ (h >> 29);
 }
 
-int face_groups(const void *faces, int faces32, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
-                int64_t *same, int64_t *opposite, Failure *failure)
+int row_groups(const void *rows, int rows32, int columns, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
+               int64_t *same, int64_t *opposite, Failure *failure)
 {
     int bits = 4;
     uint64_t size, mask;
     int64_t *slots, f, k = 0;
+    if (columns < 1 || columns > MAX_ROW) {
+        fail(failure, ERR_VALUE, NULL, "rows of %d indices: between 1 and %d expected", columns, MAX_ROW);
+        return -1;
+    }
     while (((int64_t)1 << bits) < 2 * m)
         bits++;
     size = (uint64_t)1 << bits;
@@ -407,23 +415,27 @@ int face_groups(const void *faces, int faces32, int64_t m, int64_t *labels, int6
     memset(slots, 0xFF, size * sizeof *slots);        /* -1: empty */
     *same = *opposite = 0;
     for (f = 0; f < m; f++) {
-        int64_t t[3], u[3];
-        int odd, other_odd;
+        int64_t t[MAX_ROW], u[MAX_ROW];
+        int odd, other_odd, i, equal, repeated = 0;
         uint64_t slot;
-        sorted_triple(faces, faces32, f, t, &odd);
-        for (slot = triple_hash(t) >> (64 - bits);; slot = (slot + 1) & mask) {
+        sorted_row(rows, rows32, columns, f, t, &odd);
+        for (slot = row_hash(t, columns) >> (64 - bits);; slot = (slot + 1) & mask) {
             int64_t g = slots[slot];
-            if (g < 0) {                                  /* a new group, numbered by its first face */
+            if (g < 0) {                                  /* a new group, numbered by its first row */
                 slots[slot] = k;
                 first[k] = f;
                 labels[f] = k++;
                 break;
             }
-            sorted_triple(faces, faces32, first[g], u, &other_odd);
-            if (u[0] == t[0] && u[1] == t[1] && u[2] == t[2]) {
+            sorted_row(rows, rows32, columns, first[g], u, &other_odd);
+            for (i = 0, equal = 1; i < columns; i++)
+                equal &= u[i] == t[i];
+            if (equal) {
                 labels[f] = g;
-                /* A face with a repeated vertex has no orientation: count it as the same. */
-                if (odd != other_odd && t[0] != t[1] && t[1] != t[2])
+                for (i = 1; i < columns; i++)
+                    repeated |= t[i] == t[i - 1];
+                /* Only a triangle has an orientation (and a degenerate one none): others count as the same. */
+                if (columns == 3 && odd != other_odd && !repeated)
                     ++*opposite;
                 else
                     ++*same;

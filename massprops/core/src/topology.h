@@ -31,7 +31,9 @@ int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threa
                  EdgeArrays *arrays, Failure *failure);
 int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *labels, int64_t *count,
                 Failure *failure);
-int face_groups(const void *faces, int faces32, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
-                int64_t *same, int64_t *opposite, Failure *failure);
+/* Group rows of `columns` indices by their set of indices (labels and first rows in order of first
+ * appearance); for triangles (3 columns), count the repeats of the same and the other orientation. */
+int row_groups(const void *rows, int rows32, int columns, int64_t m, int64_t *labels, int64_t *first, int64_t *groups,
+               int64_t *same, int64_t *opposite, Failure *failure);
 
 #endif

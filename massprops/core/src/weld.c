@@ -7,6 +7,7 @@
  */
 #include "core.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -393,6 +394,10 @@ int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces
         }
         out->faces[k] = renumber[given];
     }
+    out->ignored = 0;
+    for (k = 0; k < n && failure->kind == ERR_NONE; k++)
+        out->ignored += renumber[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
+                                             && isfinite(vertices[3 * k + 2]));
     free(renumber);
     if (failure->kind != ERR_NONE) {
         welder_free(&w);

@@ -1,0 +1,169 @@
+"""Exact geometric decisions about a mesh's triangles: the Python face of ``_intersect``.
+
+Every answer here is decided by the signs of orient3d and orient2d computed
+exactly (a certified floating-point filter with an error-free expansion
+behind it), so "these triangles do not meet" is never a rounding accident.
+
+Coordinates are first shifted and scaled by a power of two, exactly (the
+frame of :func:`massprops.core.reference_frame`), so the compiled
+predicates work on numbers of about unit size.  Their expansions are exact
+while no non-zero scaled coordinate is below ``2**-200`` (no product of
+differences can underflow).  Smaller ones (a value 1e-60 of the part's size
+that is not zero) are taken as zero for the decisions; the vertices moved
+that way, and by how much, are listed (``moved_vertices``, ``moved``) so the
+caller can bound what the decisions could miss.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .frame import reference_frame
+
+# Faces above which the intersection tests run on several threads (below, a thread costs more than it saves).
+_PARALLEL_ABOVE = 1 << 16
+
+__all__ = ["ExactGeometry", "Intersections"]
+
+_SMALLEST = 2.0 ** -200
+
+
+def _extension():
+    from . import _intersect
+    return _intersect
+
+
+@dataclass(frozen=True)
+class Intersections:
+    """Triangle pairs that share a point they should not.
+
+    Attributes
+    ----------
+    self_found : ndarray, shape (shells,), bool
+        Shells in which two faces meet other than along what they share
+        (a self-intersection); only filled when asked for (``within``).
+    examples : ndarray, shape (k, 2), int64
+        Up to a few such face pairs (face indices of the mesh given).
+    shell_pairs : ndarray, shape (p, 2), int64
+        Pairs of different shells whose closed surfaces meet (touching counts), lower shell first.
+    face_pairs : ndarray, shape (p, 2), int64
+        For each shell pair, one pair of faces that meet.
+    candidates, tests : int
+        Face pairs the grid proposed, and pairs that reached the exact test.
+    """
+
+    self_found: np.ndarray
+    examples: np.ndarray
+    shell_pairs: np.ndarray
+    face_pairs: np.ndarray
+    candidates: int
+    tests: int
+
+
+class ExactGeometry:
+    """A mesh's vertices in the exact frame the compiled predicates use.
+
+    Parameters
+    ----------
+    vertices : ndarray, shape (n, 3), float64
+        Local-frame coordinates, mesh units (finite).
+
+    Attributes
+    ----------
+    moved_vertices : ndarray of int, moved : ndarray of float
+        Vertices with a coordinate below ``2**-200`` of the part's size, taken
+        as zero, and a bound on each one's move (mesh units).
+    """
+
+    def __init__(self, vertices):
+        vertices = np.asarray(vertices, dtype=np.float64)
+        reference, scale_exp = reference_frame(vertices) if vertices.size else (np.zeros(3), 0)
+        scaled = np.ldexp(vertices - reference, -scale_exp)           # both steps exact
+        tiny = (scaled != 0) & (np.abs(scaled) < _SMALLEST)
+        self.moved_vertices = np.flatnonzero(tiny.any(axis=1))
+        # Each snapped coordinate moves by less than 2**-200 (scaled): the vertex by less than √3 times that.
+        self.moved = np.full(self.moved_vertices.size, math.ldexp(1.8, scale_exp - 200))
+        scaled[tiny] = 0.0
+        self.vertices = np.ascontiguousarray(scaled)
+        self.reference = reference
+        self.scale_exp = scale_exp
+
+    def zero_area(self, faces):
+        """Flags (m,) of the faces whose three corners are collinear or coincide, exactly."""
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        out = np.zeros(faces.shape[0], dtype=np.uint8)
+        _extension().degenerate(self.vertices, faces, out)
+        return out.view(bool)
+
+    def intersections(self, faces, shells, n_shells, *, within, between, active=None, max_examples=8,
+                      threads=None):
+        """Which faces meet, through a hierarchical grid and exact tests.
+
+        Parameters
+        ----------
+        faces : ndarray, shape (m, 3), int
+        shells : ndarray, shape (m,), int
+            Shell label of each face, ``0 .. n_shells - 1``.  Faces of one
+            shell that share vertices (by index) are neighbours: they meet
+            only if they fold over each other beyond what they share.
+        within, between : bool
+            Look for self-intersections, and for meeting shells.
+        active : ndarray, shape (m,), bool, optional
+            Faces to consider (default all); faces of zero area never take part.
+
+        Returns
+        -------
+        Intersections
+        """
+        from .threads import thread_count
+
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        if threads is None:
+            # Starting threads costs more than it saves on small meshes.
+            threads = thread_count() if faces.shape[0] > _PARALLEL_ABOVE else 1
+        shells = np.ascontiguousarray(shells, dtype=np.int64)
+        active = (np.ones(faces.shape[0], dtype=np.uint8) if active is None
+                  else np.ascontiguousarray(active, dtype=np.uint8))
+        flags, examples, found, candidates, tests = _extension().pairs(
+            self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
+            int(max_examples), int(threads))
+        found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
+        order = np.lexsort((found[:, 1], found[:, 0]))
+        found = found[order]
+        return Intersections(np.frombuffer(flags, dtype=np.uint8).astype(bool)[:n_shells],
+                             np.frombuffer(examples, dtype=np.int64).reshape(-1, 2).copy(),
+                             found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests))
+
+    def winding(self, faces, points):
+        """Winding numbers of the closed surface ``faces`` about vertices ``points``.
+
+        Parameters
+        ----------
+        faces : ndarray, shape (m, 3), int
+            A closed, consistently wound surface (any number of shells).
+        points : ndarray, shape (k,), int
+            Vertex indices; none may lie on the surface.
+
+        Returns
+        -------
+        ndarray, shape (k,), int64
+            +1 inside a shell wound outward, -1 inside one wound inward, summed over shells.
+        """
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        where = np.ascontiguousarray(self.vertices[np.asarray(points, dtype=np.int64)])
+        return np.frombuffer(_extension().winding(self.vertices, faces, where), dtype=np.int64).copy()
+
+
+def orient3d_signs(points):
+    """Exact signs of ``det[a - d, b - d, c - d]`` for points (k, 4, 3) given as (a, b, c, d).
+
+    Coordinates must be of about unit size with no non-zero magnitude below
+    ``2**-200`` (see :class:`ExactGeometry`); negative when d is on the side
+    the right-hand normal of (a, b, c) points to.
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 4, 3)   # noqa
+    return np.frombuffer(_extension().orient3d_signs(points), dtype=np.int8).copy()
+
