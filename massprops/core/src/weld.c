@@ -11,16 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static inline uint64_t mix64(uint64_t h)
-{
-    h ^= h >> 30;
-    h *= 0xBF58476D1CE4E5B9ULL;
-    h ^= h >> 27;
-    h *= 0x94D049BB133111EBULL;
-    h ^= h >> 31;
-    return h;
-}
-
 static inline uint64_t point_bits(double x)
 {
     uint64_t bits;
