@@ -254,7 +254,7 @@ def test_rotation_forms_round_trip(tmp_path_factory, euler, sequence):
     directory = tmp_path_factory.mktemp("rot")
     _write(directory, "bracket.stl", solids.l_bracket())
     rotation = Rotation.from_euler(sequence, euler, degrees=True)      # an independent implementation
-    q = rotation.as_quat(scalar_first=True)
+    q = np.roll(rotation.as_quat(), 1)                                  # scipy gives x, y, z, w
     matrix = rotation.as_matrix()
     forms = {"q": f"{{ quaternion = {list(map(float, q))} }}",
              "e": f'{{ euler = {list(map(float, euler))}, sequence = "{sequence}" }}',
