@@ -61,7 +61,7 @@ def _settings(command, geometry, mass_policy, density, package, config_path, joi
         raise SystemExit(2)
     return RobotSettings(command=command, geometry=geometry, mass_policy=mass_policy, density=density,
                          packages=package, config_path=config_path, joints=joints, repair=repair, on_open=on_open,
-                         xacro_args=xacro_args, **extra)
+                         xacro_args=xacro_args, option_style="cli", **extra)
 
 
 def _analyze_all(models, settings, jobs):

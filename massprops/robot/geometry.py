@@ -38,7 +38,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError
+from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError, option
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import PRIMITIVES
 
@@ -72,7 +72,7 @@ def parse_on_open(text):
             thickness = math.nan
         if math.isfinite(thickness) and thickness > 0:
             return OnOpen("shell", thickness)
-    raise OptionError(f"--on-open {text!r} is not understood", fix="use hull, shell:THICKNESS (metres) or skip")
+    raise OptionError(f"{option('on_open')} {text!r} is not understood", fix="use hull, shell:THICKNESS (metres) or skip")
 
 
 @dataclass(frozen=True, eq=False)
@@ -288,9 +288,9 @@ def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
     what = f"{geometry.where}: mesh {geometry.uri or '(inline)'}"
     if on_open.action is None:
         raise type(exc)(f"{what}: {exc.problem}", path=path,
-                        fix="fix the mesh, or pass --on-open hull|shell:THICKNESS|skip, or --repair")
+                        fix="fix the mesh, or pass {on_open=hull|shell:THICKNESS|skip}, or {repair}")
     if on_open.action == "skip":
-        return None, None, 0, (f"{what}: {exc.problem}; left out (--on-open skip)",), None
+        return None, None, 0, (f"{what}: {exc.problem}; left out ({option('on_open', 'skip')})",), None
     from ..mesh import TriangleMesh
     linear = np.diag([float(s) for s in scale]) if geometry.stretch is None else np.asarray(geometry.stretch)
     scaled = TriangleMesh(mesh.vertices @ linear.T, mesh.faces)
@@ -298,11 +298,11 @@ def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
         from scipy.spatial import ConvexHull
         hull = ConvexHull(scaled.vertices)
         scaled = TriangleMesh(scaled.vertices, np.asarray(hull.simplices, dtype=np.int64))
-        note = "used its convex hull (--on-open hull)"
+        note = "used its convex hull ({on_open=hull})"
         from ..compute import mass_properties
         result = mass_properties(_outward(scaled), density=float(density), pose=geometry.pose)
     else:
-        note = f"treated as a sheet {on_open.thickness:g} m thick (--on-open shell)"
+        note = f"treated as a sheet {on_open.thickness:g} m thick ({option('on_open', 'shell')})"
         from ..compute import mass_properties
         result = mass_properties(scaled, density=float(density), pose=geometry.pose, shell=on_open.thickness)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)

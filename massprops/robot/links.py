@@ -100,7 +100,7 @@ def _density_for(link, geometry, settings):
     if geometry.density is not None:
         return float(geometry.density), None, "format"
     if settings.density is not None:
-        return float(settings.density), None, "--density"
+        return float(settings.density), None, "{density}"
     return DEFAULT_DENSITY, None, "default"
 
 
@@ -150,7 +150,7 @@ def _link_mass(link, settings):
     if declared is not None and declared.mass is not None and math.isfinite(declared.mass.value) \
             and declared.mass.value > 0 and (_policy(link, settings) == "keep" or declared.auto):
         return declared.mass.value, ("declared mass (auto inertial)" if declared.auto
-                                     else "declared mass (--mass-policy keep)")
+                                     else "declared mass ({mass_policy=keep})")
     return None, ""
 
 
@@ -180,7 +180,7 @@ def link_properties(model, link, settings, resolver):
     elif defaulted and not (link.declared is not None and link.declared.mass is not None
                             and link.declared.mass.value == 0):
         warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
-                        "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
+                        "{density}, a [links] density in {config}, or keep the declared mass ({mass_policy=keep})")
     boxes = [r.bounds for _, _, r in results if r.bounds is not None]
     bounds = np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)]) \
         if boxes else None
