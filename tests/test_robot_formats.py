@@ -197,7 +197,7 @@ def test_sdf_auto_inertial_scales_to_the_given_mass(tmp_path):
 
 
 def test_sdf_world_includes_a_model_by_model_uri(tmp_path, monkeypatch):
-    from massprops.robot.fixtures import write_robots
+    from massprops.validation.robots import write_robots
     write_robots(tmp_path / "models", formats=("sdf",))
     monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(tmp_path / "models"))
     path = _write(tmp_path / "world.sdf", """

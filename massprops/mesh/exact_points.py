@@ -151,7 +151,7 @@ def exact_vertex(grid, faces, origins, v):
 
 def _projection(point, planes):
     """The point nearest to ``point`` on the intersection of one or two independent planes."""
-    (x, one), (n1, d1) = point, planes[0]
+    (x, _), (n1, d1) = point, planes[0]
     if len(planes) == 1:
         g = _dot(n1, n1)
         return (tuple(x[k] * g + (d1 - _dot(n1, x)) * n1[k] for k in range(3)), g)

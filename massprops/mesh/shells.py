@@ -96,7 +96,6 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
         copy_six, copy_bound = (float(x[0]) for x in shell_six_volumes(
             vertices, copies, np.zeros(copies.shape[0], dtype=np.int64), 1))
         copy_six *= sign
-    face_sign = six[labels] > 0
     geometry = _geometry(vertices)
     boxes = _shell_boxes(vertices, faces, labels, n_shells)
     pairs = _box_pairs(boxes, np.flatnonzero(live))

@@ -29,9 +29,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from .fixture_files import (BRACKET, BRACKET_MM, DENSITY, ELEMENTS, OPEN, PACKAGE, PRISM, matrix, mesh_files, mjcf,
+from .robot_files import (BRACKET, BRACKET_MM, DENSITY, ELEMENTS, OPEN, PACKAGE, PRISM, matrix, mesh_files, mjcf,
                             mul, rational, sdf, transpose, urdf)
-from .model import rpy_rotation
+from ..robot.model import rpy_rotation
 
 __all__ = ["write_robots", "write_sample", "DENSITY", "PACKAGE"]
 
@@ -141,7 +141,7 @@ def _posed(values, xyz, rpy):
 
 
 def _mesh_values(path):
-    from ..validation.exact import exact_properties
+    from .exact import exact_properties
     from ..io import read
     mesh = read(path)
     exact = exact_properties(mesh.vertices[mesh.faces])
