@@ -199,8 +199,9 @@ def _props_dict(model, computed, pose):
     result = Result(file=model.path, properties=placed, triangles=computed.triangles, checks={},
                     warnings=computed.warnings)
     out = report.result_dict(result)
-    for key in ("file", "checks", "elapsed_s"):
+    for key in ("file", "elapsed_s"):
         out.pop(key, None)
+    out["checks"] = dict(computed.checks)
     out["size"] = computed.size
     out["mass_source"] = computed.mass_source
     return out
