@@ -44,6 +44,7 @@ import numpy as np
 
 from ..core.rounding import U as _U
 from ..errors import MassPropsError
+from ..mesh.shells import joined_groups
 from ..scene import combine_parts
 
 __all__ = ["LinkSolid", "link_solid"]
@@ -67,6 +68,7 @@ class _Piece:
     props: object
     box: list                 # [low, high], each 3 Fractions: contains the geometry
     surface: object = None    # massprops.robot.geometry.Surface, or None (kept whole)
+    placed: tuple = ()        # the surface in the link frame: (vertices, faces, move bound per vertex)
     checks: dict | None = None
 
 
@@ -82,15 +84,17 @@ def link_solid(link_name, results, *, repair=False):
     -------
     LinkSolid
     """
+    checks = {"overlap": 0.0, "duplicate_shells": 0, "unresolved_overlap": 0.0}
+    if len(results) == 1:
+        return LinkSolid(combine_parts([results[0][1]]), checks)
     pieces = [_piece(geometry, props, result) for geometry, props, result in results]
     pairs = [(i, j, _box_meet(pieces[i].box, pieces[j].box)) for i in range(len(pieces))
              for j in range(i + 1, len(pieces))]
     pairs = [(i, j, volume) for i, j, volume in pairs if volume > 0]
     unitable = [(i, j) for i, j, _ in pairs if _unitable(pieces[i], pieces[j])]
-    checks = {"overlap": 0.0, "duplicate_shells": 0, "unresolved_overlap": 0.0}
-    warnings, parts, kept = [], [], set()
+    warnings, parts = [], []
     unresolved = [(i, j, v) for i, j, v in pairs if (i, j) not in set(unitable) and not _apart(pieces[i], pieces[j])]
-    for group in _components(len(pieces), unitable):
+    for group in joined_groups(range(len(pieces)), np.array(unitable, dtype=np.int64).reshape(-1, 2)):
         members = [pieces[k] for k in group]
         if len(group) == 1:
             parts.append(members[0].props)
@@ -108,7 +112,6 @@ def link_solid(link_name, results, *, repair=False):
         checks["duplicate_shells"] += facts.get("duplicate_shells", 0)
         if "united" in facts:
             checks.setdefault("united", []).append([m.name for m in members])
-        kept.update(group)
         warnings += said
     total = combine_parts(parts)
     if unresolved:
@@ -136,22 +139,28 @@ def _piece(geometry, props, result):
     if props.density <= 0 or (result.checks or {}).get("welded_vertices"):
         # No mass to count twice; or a mesh closed by welding its noise, a move bounded in its own frame only.
         surface = None
-    return _Piece(geometry.name, geometry.kind, props, _box(geometry, result), surface, result.checks)
+    placed = _placed(surface) if surface is not None else ()
+    return _Piece(geometry.name, geometry.kind, props, _box(geometry, result, placed), surface, placed, result.checks)
 
 
-def _box(geometry, result):
+def _box(geometry, result, placed):
     """The geometry's box in the link frame, rigorously (Fractions): exact where it can be, else widened."""
     pose = geometry.pose
-    rotation = pose.rotation
-    if geometry.kind == "sphere" or (geometry.kind != "mesh" and _permutation(rotation)):
+    if geometry.kind == "sphere" or (geometry.kind != "mesh" and _permutation(pose.rotation)):
         half = _exact_half(geometry)
         centre = [Fraction(float(x)) for x in pose.translation]
         return [[c - h for c, h in zip(centre, half)], [c + h for c, h in zip(centre, half)]]
-    low, high = result.bounds
-    if result.surface is not None:
-        reach = _placement_reach(result.surface.mesh.vertices, result.surface.linear, pose)
+    if placed:
+        points, _, moved = placed
+        low, high = (points - moved[:, None]).min(axis=0), (points + moved[:, None]).max(axis=0)
+        reach = np.zeros(3)
     else:
-        reach = 8 * _U * np.maximum(np.abs(low), np.abs(high)) * (1 + 1e-9)
+        low, high = result.bounds
+        corners = np.abs(np.array([low, high]) - pose.translation).max(axis=0)
+        # A primitive's box is a few roundings from exact.  A mesh taken by on_open is integrated on its scaled
+        # floats p; placing them rounds by at most 5u (|R||p| + |t|), and |R||p| <= sqrt(3) |p| <= 2 |q - t|.
+        reach = (8 * _U * np.maximum(np.abs(low), np.abs(high)) if geometry.kind != "mesh"
+                 else 9 * _U * (2 * float(np.linalg.norm(corners)) + np.abs(pose.translation))) * (1 + 1e-9)
     reach = reach + _TINY
     return [[Fraction(float(x)) for x in np.nextafter(low - reach, -np.inf)],
             [Fraction(float(x)) for x in np.nextafter(high + reach, np.inf)]]
@@ -177,12 +186,6 @@ def _exact_half(geometry):
         own = [r, r, h + (r if kind == "capsule" else 0)]
     rotation = geometry.pose.rotation
     return [sum(abs(Fraction(float(rotation[i, k]))) * own[k] for k in range(3)) for i in range(3)]
-
-
-def _placement_reach(vertices, linear, pose):
-    """Per axis, a bound on how far placing any vertex moves it from ``R (L x) + t`` exact (see module)."""
-    extent = np.abs(vertices).max(axis=0) if vertices.size else np.zeros(3)
-    return 9 * _U * (np.abs(pose.rotation) @ (np.abs(linear) @ extent) + np.abs(pose.translation)) * (1 + 1e-9)
 
 
 def _box_meet(a, b):
@@ -212,26 +215,6 @@ def _apart(a, b):
 def _radius(sphere):
     """A sphere's radius, exactly: half its exact box."""
     return (sphere.box[1][0] - sphere.box[0][0]) / 2
-
-
-def _components(n, edges):
-    """Groups of indices joined by ``edges`` (lists, ascending), in order of their first index."""
-    parent = list(range(n))
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
-    for i, j in edges:
-        ri, rj = root(i), root(j)
-        if ri != rj:
-            parent[max(ri, rj)] = min(ri, rj)
-    groups = {}
-    for k in range(n):
-        groups.setdefault(root(k), []).append(k)
-    return sorted(groups.values())
 
 
 # -- union --------------------------------------------------------------------------
@@ -265,7 +248,7 @@ def _without_copies(members):
     """``(distinct, copies)``: members with their placed surfaces, and members placed exactly like an earlier one."""
     distinct, copies = [], []
     for member in members:
-        placed = _placed(member.surface)
+        placed = member.placed
         if any(np.array_equal(placed[0], p[0]) and np.array_equal(placed[1], p[1]) for _, p in distinct):
             copies.append(member)
         else:
@@ -300,7 +283,8 @@ def _united(link_name, members, repair):
     twice = summed.volume - union.volume
     unsure = (summed.error.volume + union.error.volume) * (1 + 1e-9)
     if twice < -unsure:
-        raise MassPropsError(f"the union's volume {union.volume:.17g} exceeds the sum of the parts' {summed.volume:.17g}")
+        raise MassPropsError(f"the union's volume {union.volume:.17g} exceeds the sum of the parts' "
+                             f"{summed.volume:.17g}")
     if twice <= unsure:
         return [_within(summed, union)], facts, said            # they touch: the sum, bounded by the union
     nested = [r for r in checked.resolved if "meet" not in r]
