@@ -332,11 +332,13 @@ def _bounded(total, unresolved, pieces):
     far = np.maximum(np.abs(np.array([float(x) for x in low]) - com), np.abs(np.array([float(x) for x in high]) - com))
     across = float(far.max()) * (1 + 4 * _U)
     radius = float(np.linalg.norm(far)) * (1 + 4 * _U)
+    # The union holds every geometry: its mass is at least the heaviest one's, and at least the sum less μ.
     lowest = max(total.mass - mass, max(p.props.mass for p in pieces) * (1 - 4 * _U))
-    if not lowest > 0:
-        lowest = max(p.props.mass for p in pieces) * (1 - 4 * _U)
-    shift = mass * radius / lowest
+    moved, turned = 0.0, 0.0                         # no mass counted twice (massless geometries) moves nothing
+    if mass > 0 and lowest > 0:
+        shift = mass * radius / lowest
+        moved = mass * across / lowest * (1 + 1e-9)
+        turned = (mass * radius ** 2 + total.mass * shift ** 2) * (1 + 1e-9)
     error = replace(total.error, volume=total.error.volume + bound, mass=total.error.mass + mass,
-                    center_of_mass=total.error.center_of_mass + mass * across / lowest * (1 + 1e-9),
-                    inertia_com=total.error.inertia_com + (mass * radius ** 2 + total.mass * shift ** 2) * (1 + 1e-9))
+                    center_of_mass=total.error.center_of_mass + moved, inertia_com=total.error.inertia_com + turned)
     return replace(total, error=error), bound
