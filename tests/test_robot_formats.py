@@ -261,3 +261,11 @@ def test_not_a_robot_description(tmp_path):
     missing = analyze(str(tmp_path / "none.urdf"), RobotSettings(command="check"))
     assert missing["status"] == "error" and "no such file" in missing["message"]
     assert os.path.basename(missing["model"]) == "none.urdf"
+
+
+def test_a_link_whose_geometry_has_no_mass_is_an_error_not_a_crash(tmp_path):
+    path = _write(tmp_path / "m.sdf", """
+    <sdf version="1.9"><model name="m"><link name="l"><collision name="c"><density>0</density>
+      <geometry><box><size>1 1 1</size></box></geometry></collision></link></model></sdf>""")
+    link = analyze(path, RobotSettings(command="props"))["links"][0]
+    assert link["status"] == "error" and "total mass is 0" in link["message"]

@@ -583,3 +583,13 @@ def test_sample_flange_lists_its_bolts_in_a_csv_file(runner):
     assert each["total"]["mass"] == pytest.approx(plate.mass + 8 * bolt.mass, rel=1e-15)
     # Eight bolts on a circle about z: the total's COM is on the z axis.
     assert np.abs(np.array(obj["total"]["center_of_mass"][:2])).max() <= 1e-15
+
+
+def test_parts_without_mass_have_no_center_of_mass():
+    from massprops.errors import MeshGeometryError
+    from massprops.properties import MassProperties
+    part = massprops.mass_properties(solids.box()).properties
+    massless = MassProperties(part.volume, 0.0, 0.0, part.surface_area, part.center_of_mass, part.inertia_com * 0.0,
+                              part.error)
+    with pytest.raises(MeshGeometryError, match="no center of mass"):
+        assembly.combine_parts([massless, massless])

@@ -32,7 +32,7 @@ def model_options(f):
         click.option("--mass-policy", type=click.Choice(["density", "keep"]), default=None,
                      help="density: mass from densities; keep: the declared mass spread over the geometry "
                           "(default: density for props, keep for check and write)."),
-        click.option("--density", type=float, help="Density [kg/m³] for geometry the file and --config give none "
+        click.option("--density", type=options.POSITIVE, help="Density [kg/m³] for geometry the file and --config give none "
                                                    "(else 1000, with a warning)."),
         click.option("--package", "package", multiple=True, metavar="NAME=DIR", callback=_pairs,
                      help="Where package://NAME/ (or model://NAME/) lives (repeatable); searched first."),
