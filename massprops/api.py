@@ -10,15 +10,27 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
+import os
+from collections.abc import Iterable, Mapping
+from typing import Any, Union
+
 from . import compute
 from .compute import Result
 from .errors import OptionError, option
+from .frames import Pose
 
-__all__ = ["mass_properties"]
+__all__ = ["mass_properties", "Source"]
+
+# What mass_properties takes: a file, a TriangleMesh, a trimesh mesh or scene, an object with vertices and
+# faces (or triangles), or a (vertices, faces) pair.
+Source = Union[str, bytes, os.PathLike, Any]
 
 
-def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, max_unpacked=None, self_intersection=None):
+def mass_properties(source: Source, *, density: float | None = None, mass: float | None = None,
+                    unit: str | None = None, pose: Pose | None = None, repair: bool = False,
+                    only: str | Iterable[str] | None = None, density_field: str | None = None,
+                    density_map: Mapping[str, float] | None = None, shell: float | None = None,
+                    max_unpacked: int | None = None, self_intersection: bool | None = None) -> Result:
     """Mass properties of a solid, with a rigorous error bound on every number.
 
     Parameters

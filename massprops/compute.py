@@ -20,7 +20,7 @@ from .mesh.surface import TriangleMesh
 from .properties import MassProperties, unit_factor
 from .resolution import annotate
 
-__all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities"]
+__all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities", "Checked", "checked_solid"]
 
 # Quantities for --only, and the highest moment each needs.
 QUANTITIES = {"volume": 0, "mass": 0, "surface_area": 0, "center_of_mass": 1, "inertia": 2, "principal": 2}
@@ -143,6 +143,22 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
                   source_dtype=str(getattr(mesh, "source_dtype", "float64")))
 
 
+@dataclass(frozen=True, eq=False)
+class Checked:
+    """A mesh checked, its solid resolved and integrated (:func:`checked_solid`).
+
+    ``resolved`` says what was united, dropped as nested or counted once as
+    repeated (:attr:`massprops.mesh.solid.Solid.resolved`): empty when the
+    shells neither meet nor nest.
+    """
+
+    moments: object
+    mesh: TriangleMesh
+    checks: dict
+    warnings: list
+    resolved: tuple = ()
+
+
 def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection=None):
     """Repair (on request), check, resolve the solid and integrate a mesh.
 
@@ -155,6 +171,12 @@ def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection
     (Moments, TriangleMesh, dict, list of str)
         Outward moments, the mesh integrated, the checks, and the warnings.
     """
+    checked = checked_solid(mesh, path=path, order=order, repair=repair, self_intersection=self_intersection)
+    return checked.moments, checked.mesh, checked.checks, checked.warnings
+
+
+def checked_solid(mesh, *, path=None, order=2, repair=False, self_intersection=None):
+    """:func:`checked_moments` as a :class:`Checked`, which also says what was resolved."""
     if not repair:
         return _checked_moments(mesh, path=path, order=order, repair=False, self_intersection=self_intersection)
     from .mesh.repair import after_repair
@@ -195,7 +217,7 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
         warnings.append(f"welded {welded.count} vertices that differ from others by at most "
                         f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
                         "include the move")
-    return moments, solid.mesh, check_dict, warnings
+    return Checked(moments, solid.mesh, check_dict, warnings, solid.resolved)
 
 
 def _outward(moments, solid, warnings):

@@ -33,14 +33,18 @@ __all__ = [
 
 # Options that are both keyword arguments of the library and command-line options.
 # Flags: a bare placeholder means "turn it on" (repair=True / --repair).
-_FLAGS = frozenset({"repair", "recursive", "resume"})
+_FLAGS = frozenset({"repair", "recursive", "resume", "declared_only"})
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
                      "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
-                     "omega", "about", "rotate", "translate"})
+                     "omega", "about", "rotate", "translate", "on_open", "mass_policy", "massless", "joints",
+                     "geometry"})
+# Options whose keyword argument has another name and form: placeholder → (keyword spelling, option spelling).
+_RENAMED = {"package": ("packages={'NAME': 'DIR'}", "--package NAME=DIR"),
+            "config": ("config_path", "--config")}
 # On/off switches with an option each way: {name=True} is --name, {name=False} is --no-name.
 _SWITCHES = frozenset({"self_intersection"})
-OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES
-_PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9]+))?\}")
+OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES | frozenset(_RENAMED)
+_PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9|:*=-]+))?\}")
 STYLES = ("python", "cli")
 
 
@@ -55,6 +59,8 @@ def _spell(match, style):
     name, value = match.group(1), match.group(2)
     if name not in OPTION_NAMES:
         return match.group(0)
+    if name in _RENAMED:
+        return _RENAMED[name][style == "cli"]
     if style == "cli":
         flag = "--" + name.replace("_", "-")
         if name in _SWITCHES:

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import OptionError
 
@@ -149,7 +150,7 @@ class Pose:
         object.__setattr__(self, "translation", translation)
 
     @classmethod
-    def from_quat(cls, quat, *, scalar_first=True, translation=(0.0, 0.0, 0.0)):
+    def from_quat(cls, quat: ArrayLike, *, scalar_first: bool = True, translation: ArrayLike = (0.0, 0.0, 0.0)) -> Pose:
         """Pose from a quaternion (normalised here; zero length is refused)."""
         q = np.asarray(quat, dtype=float)
         if q.shape != (4,) or not np.all(np.isfinite(q)):
@@ -160,7 +161,8 @@ class Pose:
         return cls(rotation, translation)
 
     @classmethod
-    def from_euler(cls, seq, angles, *, degrees=True, translation=(0.0, 0.0, 0.0)):
+    def from_euler(cls, seq: str, angles: ArrayLike, *, degrees: bool = True,
+                   translation: ArrayLike = (0.0, 0.0, 0.0)) -> Pose:
         """Pose from Euler angles, scipy's convention (``"xyz"`` extrinsic, ``"XYZ"`` intrinsic)."""
         if not (1 <= len(seq) <= 3) or not (seq.islower() or seq.isupper()) \
                 or any(ch not in "xyzXYZ" for ch in seq):
@@ -181,7 +183,7 @@ class Pose:
         return cls(rotation, translation)
 
     @classmethod
-    def from_matrix(cls, matrix, *, translation=(0.0, 0.0, 0.0)):
+    def from_matrix(cls, matrix: ArrayLike, *, translation: ArrayLike = (0.0, 0.0, 0.0)) -> Pose:
         """Pose from a 3×3 rotation matrix; refused unless orthonormal with det +1."""
         m = np.asarray(matrix, dtype=float)
         if m.shape != (3, 3) or not np.all(np.isfinite(m)):
@@ -196,7 +198,7 @@ class Pose:
         return cls(m, translation)
 
     @classmethod
-    def parse(cls, text, *, translation=(0.0, 0.0, 0.0)):
+    def parse(cls, text: str, *, translation: ArrayLike = (0.0, 0.0, 0.0)) -> Pose:
         """Parse a rotation given on the command line.
 
         Accepted forms: ``quat:w,x,y,z``; ``euler:SEQ:a,b,c`` (degrees);
@@ -224,20 +226,20 @@ class Pose:
         raise OptionError(f"cannot read rotation {text!r}: {len(values)} numbers",
                           fix="use quat:w,x,y,z, euler:zyx:a,b,c (degrees) or matrix:9 numbers")
 
-    def apply(self, points):
+    def apply(self, points: ArrayLike) -> np.ndarray:
         """Map local points (…, 3) to the global frame."""
         return matvec(self.rotation, points) + self.translation
 
-    def as_quat(self, *, scalar_first=True):
+    def as_quat(self, *, scalar_first: bool = True) -> np.ndarray:
         """The rotation as a unit quaternion with w ≥ 0 (:func:`quat_from_matrix`)."""
         q = quat_from_matrix(self.rotation)
         return q if scalar_first else np.roll(q, -1)
 
-    def compose(self, inner):
+    def compose(self, inner: Pose) -> Pose:
         """The pose of ``inner`` placed inside this pose: ``self ∘ inner``."""
         return Pose(matmul(self.rotation, inner.rotation), matvec(self.rotation, inner.translation) + self.translation)
 
-    def inverse(self):
+    def inverse(self) -> Pose:
         return Pose(self.rotation.T.copy(), -matvec(self.rotation.T, self.translation))
 
 

@@ -14,11 +14,12 @@ from fractions import Fraction
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
 from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia
-from .principal import DEFAULT_RTOL, principal
+from .principal import DEFAULT_RTOL, Principal, principal
 
 __all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
 
@@ -317,7 +318,7 @@ class MassProperties:
     # -- derived quantities -------------------------------------------------
 
     @cached_property
-    def principal(self):
+    def principal(self) -> Principal:
         """:class:`massprops.principal.Principal` of ``inertia_com`` (local axes)."""
         self._need_inertia()
         # input_resolution["principal_moments"] already bounds the spectral norm (Weyl), no factor 3.
@@ -327,52 +328,52 @@ class MassProperties:
 
     # Cached (the value is immutable; replace() makes a new one): a report asks for them more than once.
     @cached_property
-    def center_of_mass_global(self):
+    def center_of_mass_global(self) -> np.ndarray | None:
         """ndarray (3,): ``A c' + t`` (read-only)."""
         return frozen_array(self.pose.apply(self.center_of_mass))
 
     @cached_property
-    def inertia_com_global(self):
+    def inertia_com_global(self) -> np.ndarray | None:
         """ndarray (3, 3): ``A J_G' Aᵀ``, about the center of mass, global axes (read-only)."""
         self._need_inertia()
         return frozen_array(rotate_inertia(self.inertia_com, self.pose.rotation))
 
     @property
-    def inertia_origin(self):
+    def inertia_origin(self) -> np.ndarray | None:
         """ndarray (3, 3): about the global origin, global axes (parallel axis)."""
         return self.about((0.0, 0.0, 0.0))
 
-    def about(self, point):
+    def about(self, point: ArrayLike) -> np.ndarray:
         """Inertia about a global point, in global axes."""
         offset = self.center_of_mass_global - np.asarray(point, dtype=float)
         return self.inertia_com_global + parallel_axis(self.mass, offset)
 
-    def in_frame(self, frame):
+    def in_frame(self, frame: Pose) -> np.ndarray:
         """Inertia about the origin of ``frame`` (a Pose), in that frame's axes."""
         self._need_inertia()
         return inertia_about_frame(self.inertia_com_global, self.mass, self.center_of_mass_global, frame)
 
-    def with_pose(self, pose):
+    def with_pose(self, pose: Pose) -> MassProperties:
         """The same part placed at ``pose``."""
         return replace(self, pose=pose)
 
-    def rotated(self, rotation):
+    def rotated(self, rotation: ArrayLike) -> MassProperties:
         """The properties of the part's geometry rotated by ``rotation`` about the local origin."""
         a = np.asarray(rotation, dtype=float)
         return replace(self, center_of_mass=matvec(a, self.center_of_mass),
                        inertia_com=None if self.inertia_com is None else rotate_inertia(self.inertia_com, a))
 
-    def translated(self, offset):
+    def translated(self, offset: ArrayLike) -> MassProperties:
         """The properties of the part's geometry moved by ``offset`` in its local frame."""
         return replace(self, center_of_mass=self.center_of_mass + np.asarray(offset, dtype=float))
 
-    def angular_momentum(self, omega):
+    def angular_momentum(self, omega: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """``(H', H)``: angular momentum about the COM, local and global axes, for ω' in local axes."""
         self._need_inertia()
         local = matvec(self.inertia_com, omega)
         return local, matvec(self.pose.rotation, local)
 
-    def kinetic_energy(self, omega):
+    def kinetic_energy(self, omega: ArrayLike) -> float:
         """``½ ω'ᵀ J_G' ω'``: rotational kinetic energy for ω' in local axes."""
         self._need_inertia()
         w = np.asarray(omega, dtype=float)

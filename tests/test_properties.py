@@ -83,7 +83,7 @@ def test_pose_forms_agree():
         reference = Rotation.from_euler(seq, angles, degrees=True)
         pose = Pose.from_euler(seq, angles)
         np.testing.assert_allclose(pose.rotation, reference.as_matrix(), atol=1e-15)
-        q = reference.as_quat(scalar_first=True)
+        q = np.roll(reference.as_quat(), 1)              # scipy gives x, y, z, w
         np.testing.assert_allclose(Pose.from_quat(q).rotation, pose.rotation, atol=1e-15)
         np.testing.assert_allclose(Pose.parse("quat:" + ",".join(map(repr, q.tolist()))).rotation, pose.rotation, atol=1e-15)
         text = "matrix:" + ",".join(map(repr, pose.rotation.ravel().tolist()))

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from massprops.cli import main
-from massprops.robot.fixtures import write_robots
+from massprops.validation.robots import write_robots
 
 
 @pytest.fixture(scope="module")

@@ -81,7 +81,7 @@ def test_a_link_that_cannot_be_read_fails_alone(tmp_path):
     assert links["good"]["status"] == "ok" and links["good"]["mass"] == 1.0
     assert links["bad"]["status"] == "error" and "expected 3 numbers" in links["bad"]["message"]
     assert links["lost"]["status"] == "error" and "not found (tried:" in links["lost"]["message"]
-    assert "--package" in links["lost"]["message"]
+    assert "packages=" in links["lost"]["message"]          # the library names its keyword; the CLI says --package
 
 
 def _package(root, name="my_robot"):
@@ -197,7 +197,7 @@ def test_sdf_auto_inertial_scales_to_the_given_mass(tmp_path):
 
 
 def test_sdf_world_includes_a_model_by_model_uri(tmp_path, monkeypatch):
-    from massprops.robot.fixtures import write_robots
+    from massprops.validation.robots import write_robots
     write_robots(tmp_path / "models", formats=("sdf",))
     monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(tmp_path / "models"))
     path = _write(tmp_path / "world.sdf", """
@@ -261,3 +261,11 @@ def test_not_a_robot_description(tmp_path):
     missing = analyze(str(tmp_path / "none.urdf"), RobotSettings(command="check"))
     assert missing["status"] == "error" and "no such file" in missing["message"]
     assert os.path.basename(missing["model"]) == "none.urdf"
+
+
+def test_a_link_whose_geometry_has_no_mass_is_an_error_not_a_crash(tmp_path):
+    path = _write(tmp_path / "m.sdf", """
+    <sdf version="1.9"><model name="m"><link name="l"><collision name="c"><density>0</density>
+      <geometry><box><size>1 1 1</size></box></geometry></collision></link></model></sdf>""")
+    link = analyze(path, RobotSettings(command="props"))["links"][0]
+    assert link["status"] == "error" and "total mass is 0" in link["message"]

@@ -254,7 +254,7 @@ def test_rotation_forms_round_trip(tmp_path_factory, euler, sequence):
     directory = tmp_path_factory.mktemp("rot")
     _write(directory, "bracket.stl", solids.l_bracket())
     rotation = Rotation.from_euler(sequence, euler, degrees=True)      # an independent implementation
-    q = rotation.as_quat(scalar_first=True)
+    q = np.roll(rotation.as_quat(), 1)                                  # scipy gives x, y, z, w
     matrix = rotation.as_matrix()
     forms = {"q": f"{{ quaternion = {list(map(float, q))} }}",
              "e": f'{{ euler = {list(map(float, euler))}, sequence = "{sequence}" }}',
@@ -583,3 +583,13 @@ def test_sample_flange_lists_its_bolts_in_a_csv_file(runner):
     assert each["total"]["mass"] == pytest.approx(plate.mass + 8 * bolt.mass, rel=1e-15)
     # Eight bolts on a circle about z: the total's COM is on the z axis.
     assert np.abs(np.array(obj["total"]["center_of_mass"][:2])).max() <= 1e-15
+
+
+def test_parts_without_mass_have_no_center_of_mass():
+    from massprops.errors import MeshGeometryError
+    from massprops.properties import MassProperties
+    part = massprops.mass_properties(solids.box()).properties
+    massless = MassProperties(part.volume, 0.0, 0.0, part.surface_area, part.center_of_mass, part.inertia_com * 0.0,
+                              part.error)
+    with pytest.raises(MeshGeometryError, match="no center of mass"):
+        assembly.combine_parts([massless, massless])

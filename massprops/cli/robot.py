@@ -32,7 +32,7 @@ def model_options(f):
         click.option("--mass-policy", type=click.Choice(["density", "keep"]), default=None,
                      help="density: mass from densities; keep: the declared mass spread over the geometry "
                           "(default: density for props, keep for check and write)."),
-        click.option("--density", type=float, help="Density [kg/m³] for geometry the file and --config give none "
+        click.option("--density", type=options.POSITIVE, help="Density [kg/m³] for geometry the file and --config give none "
                                                    "(else 1000, with a warning)."),
         click.option("--package", "package", multiple=True, metavar="NAME=DIR", callback=_pairs,
                      help="Where package://NAME/ (or model://NAME/) lives (repeatable); searched first."),
@@ -61,7 +61,7 @@ def _settings(command, geometry, mass_policy, density, package, config_path, joi
         raise SystemExit(2)
     return RobotSettings(command=command, geometry=geometry, mass_policy=mass_policy, density=density,
                          packages=package, config_path=config_path, joints=joints, repair=repair, on_open=on_open,
-                         xacro_args=xacro_args, **extra)
+                         xacro_args=xacro_args, option_style="cli", **extra)
 
 
 def _analyze_all(models, settings, jobs):

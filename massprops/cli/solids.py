@@ -39,7 +39,7 @@ def solids(directory, robots):
 
 
 def _robots(directory):
-    from ..robot.fixtures import write_robots
+    from ..validation.robots import write_robots
 
     expected = options.guarded(write_robots, directory, path=directory)
     if expected is None:

@@ -102,7 +102,7 @@ def check_archive(path, info, max_unpacked=None):
     try:
         with zipfile.ZipFile(path) as archive:
             unpacked = sum(member.file_size for member in archive.infolist())
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError):
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError):
         return                  # not a zip after all (a binary STL header may start so): the reader judges
     limit = unpack_limit(info.st_size, max_unpacked)
     if unpacked > limit:

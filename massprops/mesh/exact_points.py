@@ -151,7 +151,7 @@ def exact_vertex(grid, faces, origins, v):
 
 def _projection(point, planes):
     """The point nearest to ``point`` on the intersection of one or two independent planes."""
-    (x, one), (n1, d1) = point, planes[0]
+    (x, _), (n1, d1) = point, planes[0]
     if len(planes) == 1:
         g = _dot(n1, n1)
         return (tuple(x[k] * g + (d1 - _dot(n1, x)) * n1[k] for k in range(3)), g)
@@ -218,5 +218,5 @@ class SignFilter:
         e1, e2 = _sub(b, a), _sub(c, a)
         l1, l2 = math.sqrt(_dot(e1, e1)), math.sqrt(_dot(e2, e2))
         moved = [self.moved[i] for i in triangle]
-        bound = (24 * _U * l1 * l2 + 2 * sum(moved) * (l1 + l2) + 4 * max(moved) ** 2) * (1 + 1e-9)
+        bound = (24 * _U * l1 * l2 + 2 * sum(moved) * (l1 + l2) + 4 * max(moved) * max(moved)) * (1 + 1e-9)
         return _dot(_cross(e1, e2), self.normal) > bound

@@ -14,7 +14,7 @@ from ..errors import MeshGeometryError
 from .solid import (SELF_INTERSECTION_UP_TO, Solid, refuse_inside_out, refuse_self_intersection, shell_six_volumes,
                     swept_volume)
 
-__all__ = ["solid_of", "resolve_shells"]
+__all__ = ["solid_of", "resolve_shells", "joined_groups"]
 
 
 def _geometry(vertices):
@@ -96,7 +96,6 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
         copy_six, copy_bound = (float(x[0]) for x in shell_six_volumes(
             vertices, copies, np.zeros(copies.shape[0], dtype=np.int64), 1))
         copy_six *= sign
-    face_sign = six[labels] > 0
     geometry = _geometry(vertices)
     boxes = _shell_boxes(vertices, faces, labels, n_shells)
     pairs = _box_pairs(boxes, np.flatnonzero(live))
@@ -111,7 +110,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
         if within and found.self_found.any():
             refuse_self_intersection(found.examples, path)
     checks["self_intersection"] = "none" if within else "not checked"
-    units = _units(np.flatnonzero(live), found.shell_pairs if found is not None else np.zeros((0, 2), int))
+    units = joined_groups(np.flatnonzero(live), found.shell_pairs if found is not None else np.zeros((0, 2), int))
     classes = _classify(geometry, vertices, faces, labels, units, boxes, six, path)
     inside_out = [u for u, (kind, w) in zip(units, classes) if kind < 0 and w == 0]
     if inside_out:
@@ -220,7 +219,7 @@ def _box_pairs(boxes, shells):
     return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
-def _units(shells, meeting):
+def joined_groups(shells, meeting):
     """Groups of shells joined by meeting pairs (each a list, ascending); lone shells are groups of one."""
     parent = {int(s): int(s) for s in shells}
 

@@ -228,7 +228,7 @@ def swept_volume(points, faces, moved_vertices, moved):
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     perimeter = np.linalg.norm(b - a, axis=1) + np.linalg.norm(c - b, axis=1) + np.linalg.norm(a - c, axis=1)
     largest = float(moved.max())
-    enlarged = (area + largest * perimeter + largest ** 2) * (1 + 1e-9)
+    enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
     return float(np.sum(delta[faces[touched]].sum(axis=1) * enlarged)) / 3.0 * (1 + 1e-9)
 
 

@@ -9,7 +9,8 @@ Modules: :mod:`.model` (the common in-memory model), :mod:`.urdf`,
 :mod:`.geometry` (primitives and meshes), :mod:`.links` (mass policy),
 :mod:`.check` (validity and diagnoses), :mod:`.kinematics` (the robot at a
 joint configuration), :mod:`.write` (byte-preserving rewriting),
-:mod:`.report` (text, CSV, JUnit), :mod:`.fixtures` (generated test robots).
+:mod:`.report` (text, CSV, JUnit); the generated test robots are in
+:mod:`massprops.validation.robots`.
 Nothing heavy is imported here; mujoco and xacro load only for MJCF and xacro.
 """
 

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 
-from ..errors import MassPropsError
+from ..errors import MassPropsError, render_options
 from .check import Tolerances, compare, declared_validity, diagnose, MESH_SCALES
 from .geometry import parse_on_open
 from .links import MassSettings, link_properties, scaled_to_mass
@@ -47,6 +47,7 @@ class RobotSettings:
     massless: tuple = ()
     declared_only: bool = False
     xacro_args: tuple = ()
+    option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
 
     @property
     def policy(self):
@@ -94,9 +95,30 @@ def analyze(path, settings):
     except Exception as exc:  # noqa: BLE001 - one bad model must not stop the others
         if os.environ.get("MASSPROPS_DEBUG") and not isinstance(exc, MassPropsError):
             raise
-        return {"model": path, "status": "error", "message": _message(exc), "links": [], "total": None,
-                "elapsed_s": time.perf_counter() - start}
-    return _analyzed(prepared, settings, start)
+        return _spelled({"model": path, "status": "error", "message": _message(exc), "links": [], "total": None,
+                         "elapsed_s": time.perf_counter() - start}, settings.option_style)
+    return _spelled(_analyzed(prepared, settings, start), settings.option_style)
+
+
+# The report's sentences, where messages name options as placeholders (massprops.errors).
+_SENTENCES = frozenset({"message", "warnings", "mass_source", "density_source", "notes"})
+
+
+def _spelled(obj, style):
+    """``obj`` with the option placeholders of its sentences spelled for ``style``."""
+    if isinstance(obj, dict):
+        return {k: (_spelled_text(v, style) if k in _SENTENCES else _spelled(v, style)) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_spelled(v, style) for v in obj]
+    return obj
+
+
+def _spelled_text(value, style):
+    if isinstance(value, str):
+        return render_options(value, style)
+    if isinstance(value, list):
+        return [_spelled_text(v, style) for v in value]
+    return _spelled(value, style)
 
 
 def _analyzed(prepared, settings, start):
@@ -177,8 +199,9 @@ def _props_dict(model, computed, pose):
     result = Result(file=model.path, properties=placed, triangles=computed.triangles, checks={},
                     warnings=computed.warnings)
     out = report.result_dict(result)
-    for key in ("file", "checks", "elapsed_s"):
+    for key in ("file", "elapsed_s"):
         out.pop(key, None)
+    out["checks"] = dict(computed.checks)
     out["size"] = computed.size
     out["mass_source"] = computed.mass_source
     return out
@@ -261,7 +284,7 @@ def _status(model, link, computed, error, prepared, settings):
             message += " — " + "; ".join(f"{d['name']}: {d['message']}" for d in mismatch[3][:3])
         return "invalid", message, names, details, mismatch[4] if mismatch is not None else None
     if mismatch is None and settings.declared_only:
-        return "ok", "valid (--declared-only: not compared with the geometry)", [], [], None
+        return "ok", "valid ({declared_only}: not compared with the geometry)", [], [], None
     if mismatch is None:
         return "no-geometry", "declared inertial is valid; no geometry to check it against", [], [], None
     return mismatch

@@ -102,7 +102,7 @@ def _rounding_reach(half):
     Weyl: ``|Δλ| ≤ ‖ΔJ‖₂ ≤ ‖H‖_F`` (H the half-units, off-diagonals counted
     twice); ``ΔC = tr(ΔJ)/2 I − ΔJ`` adds ``(h_xx + h_yy + h_zz)/2``.
     """
-    frobenius = math.sqrt(sum(float(h) ** 2 for row in half for h in row))
+    frobenius = math.sqrt(sum(float(h) * float(h) for row in half for h in row))      # x * x: inf, never OverflowError
     return frobenius, frobenius + sum(float(half[k][k]) for k in range(3)) / 2
 
 
@@ -118,7 +118,7 @@ def declared_validity(inertial, *, massless_allowed, massless_reason=""):
         # A frame link or a fixed base: simulators ignore its tensor (pybullet: mass 0 is static).
         if massless_allowed:
             return Validity(massless=True)
-        return Validity(("mass 0 on a link that has geometry and moves — label it massless (--massless GLOB) "
+        return Validity(("mass 0 on a link that has geometry and moves — label it massless ({massless=GLOB}) "
                          "or give its mass",))
     if mass <= 0:
         return Validity((f"mass {inertial.mass.text} is not positive",))

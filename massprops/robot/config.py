@@ -125,7 +125,7 @@ def load_config(path):
         with open(path, "rb") as handle:
             data = tomllib.load(handle)
     except FileNotFoundError:
-        raise MeshReadError("no such config file", path=path, fix="check the --config path") from None
+        raise MeshReadError("no such config file", path=path, fix="check the {config} path") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise OptionError(f"not valid TOML ({exc})", path=path) from None
     unknown = set(data) - {"packages", "materials", "links", "geometries"}

@@ -38,7 +38,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError
+from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError, option
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import PRIMITIVES
 
@@ -72,7 +72,7 @@ def parse_on_open(text):
             thickness = math.nan
         if math.isfinite(thickness) and thickness > 0:
             return OnOpen("shell", thickness)
-    raise OptionError(f"--on-open {text!r} is not understood", fix="use hull, shell:THICKNESS (metres) or skip")
+    raise OptionError(f"{option('on_open')} {text!r} is not understood", fix="use hull, shell:THICKNESS (metres) or skip")
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +90,24 @@ class GeometryResult:
     resolved_by: str | None = None
     warnings: tuple = ()
     checks: dict | None = None
+    surface: Surface | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """A geometry's closed surface before placement: ``pose.apply(linear_exact @ x)`` puts it in the link frame.
+
+    ``mesh`` is wound outward after the map (faces already reversed for an
+    inward file or a mirroring ``linear``); ``linear`` is the (3, 3) float map
+    applied (a diagonal ``scale``, whose floats may round the written decimals
+    by half an ulp, or MJCF's stretch, exact), ``resolved`` whether the file's
+    own shells were united, nested or repeated (:class:`massprops.compute.Checked`).
+    """
+
+    mesh: object
+    linear: np.ndarray
+    pose: object
+    resolved: bool = False
 
 
 # -- primitives ----------------------------------------------------------------
@@ -171,6 +189,16 @@ def primitive_properties(geometry, density):
     return MassProperties(volume_f, mass_f, float(density), area, center, inertia, error, geometry.pose)
 
 
+def box_surface(geometry):
+    """The :class:`Surface` of a box primitive: its 8 corners ``±size/2`` (exact halves) and 12 outward triangles."""
+    from ..mesh import TriangleMesh
+    half = np.asarray(geometry.size["size"], dtype=float) / 2
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float) * half
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], dtype=np.int64)
+    return Surface(TriangleMesh(corners, faces), np.eye(3), geometry.pose)
+
+
 def primitive_bounds(geometry):
     """(2, 3) min/max corners of a primitive's axis-aligned box in the link frame."""
     rotation, translation = geometry.pose.rotation, geometry.pose.translation
@@ -203,6 +231,8 @@ class _MeshEntry:
     checks: dict | None = None
     warnings: tuple = ()
     problem: MassPropsError | None = None
+    raw: object = None
+    resolved: bool = False
 
 
 def clear_cache():
@@ -211,12 +241,13 @@ def clear_cache():
 
 
 def _checked(mesh, path=None, repair=False):
-    from ..compute import checked_moments
+    from ..compute import checked_solid
     try:
-        moments, mesh, checks, warnings = checked_moments(mesh, path=path, repair=repair)
+        checked = checked_solid(mesh, path=path, repair=repair)
     except (OpenMeshError, WindingError) as exc:
         return _MeshEntry(mesh, problem=exc)
-    return _MeshEntry(mesh, moments, checks, tuple(warnings))
+    return _MeshEntry(checked.mesh, checked.moments, checked.checks, tuple(checked.warnings), raw=mesh,
+                      resolved=bool(checked.resolved))
 
 
 def _read_checked(path, repair):
@@ -255,7 +286,8 @@ def _vertex_bounds(vertices, scale, pose, stretch=None):
 
 
 def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
-    """A mesh geometry's properties (placed at its pose) and box; ``(props, bounds, triangles, warnings, checks)``."""
+    """A mesh geometry's properties (placed at its pose) and box: ``(props, bounds, triangles, warnings, checks,
+    surface)``."""
     from ..scene.graph import stretched_area2, stretched_moments
     scale = geometry.scale or (1, 1, 1)
     if any(float(s) == 0 or not math.isfinite(float(s)) for s in scale):
@@ -280,7 +312,17 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
         moments = replace(moments, area2=stretched_area2(mesh, stretch, moments.scale_exp))
     props = MassProperties.from_moments(moments, density=float(density), pose=geometry.pose, path=path)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
-    return props, bounds, int(mesh.faces.shape[0]), entry.warnings, entry.checks
+    return props, bounds, int(mesh.faces.shape[0]), entry.warnings, entry.checks, _surface(entry, stretch, geometry)
+
+
+def _surface(entry, linear, geometry):
+    """The file's own surface (as read, wound outward after ``linear``) to be placed in the link frame."""
+    from ..mesh.solid import without_unused_vertices
+    mesh = without_unused_vertices(entry.raw)
+    inward = entry.checks.get("orientation", "outward") != "outward"
+    if inward != bool(np.linalg.det(linear) < 0):
+        mesh = mesh.with_faces(mesh.faces[:, ::-1].copy())
+    return Surface(mesh, np.asarray(linear, dtype=float), geometry.pose, entry.resolved)
 
 
 def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
@@ -288,9 +330,9 @@ def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
     what = f"{geometry.where}: mesh {geometry.uri or '(inline)'}"
     if on_open.action is None:
         raise type(exc)(f"{what}: {exc.problem}", path=path,
-                        fix="fix the mesh, or pass --on-open hull|shell:THICKNESS|skip, or --repair")
+                        fix="fix the mesh, or pass {on_open=hull|shell:THICKNESS|skip}, or {repair}")
     if on_open.action == "skip":
-        return None, None, 0, (f"{what}: {exc.problem}; left out (--on-open skip)",), None
+        return None, None, 0, (f"{what}: {exc.problem}; left out ({option('on_open', 'skip')})",), None, None
     from ..mesh import TriangleMesh
     linear = np.diag([float(s) for s in scale]) if geometry.stretch is None else np.asarray(geometry.stretch)
     scaled = TriangleMesh(mesh.vertices @ linear.T, mesh.faces)
@@ -298,16 +340,16 @@ def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
         from scipy.spatial import ConvexHull
         hull = ConvexHull(scaled.vertices)
         scaled = TriangleMesh(scaled.vertices, np.asarray(hull.simplices, dtype=np.int64))
-        note = "used its convex hull (--on-open hull)"
+        note = "used its convex hull ({on_open=hull})"
         from ..compute import mass_properties
         result = mass_properties(_outward(scaled), density=float(density), pose=geometry.pose)
     else:
-        note = f"treated as a sheet {on_open.thickness:g} m thick (--on-open shell)"
+        note = f"treated as a sheet {on_open.thickness:g} m thick ({option('on_open', 'shell')})"
         from ..compute import mass_properties
         result = mass_properties(scaled, density=float(density), pose=geometry.pose, shell=on_open.thickness)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
     return (result.properties, bounds, int(mesh.faces.shape[0]), (f"{what}: {exc.problem}; {note}",
-                                                                   *result.warnings), result.checks)
+                                                                   *result.warnings), result.checks, None)
 
 
 def _outward(mesh):
@@ -337,7 +379,8 @@ def geometry_properties(geometry, density, *, resolver=None, repair=False, on_op
         ``on_open`` says otherwise; bad dimensions.
     """
     if geometry.kind in PRIMITIVES:
-        return GeometryResult(primitive_properties(geometry, density), primitive_bounds(geometry))
+        return GeometryResult(primitive_properties(geometry, density), primitive_bounds(geometry),
+                              surface=box_surface(geometry) if geometry.kind == "box" else None)
     if geometry.kind in NO_VOLUME:
         return GeometryResult(None, None, warnings=(f"{geometry.where}: a {geometry.kind} has no volume; left out",))
     if geometry.kind != "mesh":
@@ -349,8 +392,9 @@ def geometry_properties(geometry, density, *, resolver=None, repair=False, on_op
         resolution = resolver.resolve(geometry.uri, base=geometry.base)
     else:
         path = None
-    props, bounds, triangles, warnings, checks = mesh_properties(geometry, path, density, repair=repair,
-                                                                 on_open=on_open)
+    props, bounds, triangles, warnings, checks, surface = mesh_properties(geometry, path, density, repair=repair,
+                                                                          on_open=on_open)
     if resolution is not None and resolution.warning:
         warnings = (resolution.warning, *warnings)
-    return GeometryResult(props, bounds, triangles, path, resolution.by if resolution else "inline", warnings, checks)
+    return GeometryResult(props, bounds, triangles, path, resolution.by if resolution else "inline", warnings, checks,
+                          surface)

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..errors import OptionError
+from ..errors import OptionError, option
 from ..frames import Pose, axis_angle_quat, quat_to_matrix
 from ..scene import combine_parts
 
@@ -37,13 +37,13 @@ def parse_joint_values(text, model):
         except ValueError:
             number = math.nan
         if not sep or not math.isfinite(number):
-            raise OptionError(f"--joints: {item!r} is not NAME=VALUE", fix="e.g. --joints shoulder=0.5,elbow=-1.2")
+            raise OptionError(f"{option('joints')}: {item!r} is not NAME=VALUE", fix="e.g. {joints=shoulder=0.5,elbow=-1.2}")
         if name not in joints:
             moving = [j.name for j in model.joints if j.moves]
-            raise OptionError(f"--joints: no joint {name!r} in the model", path=model.path,
+            raise OptionError(f"{option('joints')}: no joint {name!r} in the model", path=model.path,
                               fix=f"its moving joints are: {', '.join(moving[:12]) or '(none)'}")
         if not joints[name].moves:
-            raise OptionError(f"--joints: joint {name!r} is {joints[name].type}: it takes no single value",
+            raise OptionError(f"{option('joints')}: joint {name!r} is {joints[name].type}: it takes no single value",
                               path=model.path)
         values[name] = number
     return values

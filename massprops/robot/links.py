@@ -14,8 +14,9 @@ With the policy ``keep`` (the default of ``check`` and ``write``) a link
 that declares a positive mass gets that mass, spread over its geometries in
 proportion to the masses 1–5 give; ``density`` is then the implied one.
 
-Several geometries of a link are combined by :func:`massprops.scene.combine_parts`
-(the parallel-axis sums, centred on the total's center of mass).
+Several geometries of a link are combined by :func:`massprops.robot.overlap.link_solid`:
+their union, each point counted once (the parallel-axis sums of
+:func:`massprops.scene.combine_parts` where they do not overlap).
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ import numpy as np
 
 from ..core.rounding import U as _U
 from ..errors import MassPropsError
-from ..scene import combine_parts
 from .geometry import OnOpen, geometry_properties
+from .overlap import link_solid
 
 __all__ = ["MassSettings", "LinkProps", "link_properties", "scaled_to_mass", "DEFAULT_DENSITY"]
 
@@ -53,7 +54,8 @@ class LinkProps:
 
     ``props`` is None when the link has no geometry with volume.
     ``geometries`` holds one JSON-able dict per geometry; ``bounds`` (2, 3)
-    is the box of the link's geometry in the link frame, or None.
+    is the box of the link's geometry in the link frame, or None;
+    ``checks`` what combining them found (:class:`massprops.robot.overlap.LinkSolid`).
     """
 
     props: object
@@ -63,6 +65,7 @@ class LinkProps:
     bounds: np.ndarray | None = None
     mass_source: str = ""
     results: tuple = field(default=(), repr=False)
+    checks: dict = field(default_factory=dict)
 
     @property
     def size(self):
@@ -100,7 +103,7 @@ def _density_for(link, geometry, settings):
     if geometry.density is not None:
         return float(geometry.density), None, "format"
     if settings.density is not None:
-        return float(settings.density), None, "--density"
+        return float(settings.density), None, "{density}"
     return DEFAULT_DENSITY, None, "default"
 
 
@@ -150,7 +153,7 @@ def _link_mass(link, settings):
     if declared is not None and declared.mass is not None and math.isfinite(declared.mass.value) \
             and declared.mass.value > 0 and (_policy(link, settings) == "keep" or declared.auto):
         return declared.mass.value, ("declared mass (auto inertial)" if declared.auto
-                                     else "declared mass (--mass-policy keep)")
+                                     else "declared mass ({mass_policy=keep})")
     return None, ""
 
 
@@ -166,40 +169,25 @@ def link_properties(model, link, settings, resolver):
     results, infos, warnings, defaulted = _geometries(link, settings, resolver)
     if not results:
         return LinkProps(None, tuple(infos), tuple(warnings))
-    total = combine_parts([props for _, props, _ in results])
+    solid = link_solid(link.name, results, repair=settings.repair)
+    total = solid.props
+    warnings += solid.warnings
     densities = {props.density for _, props, _ in results}
     if len(densities) == 1:
         total = replace(total, density=densities.pop())      # one material: its density, not mass / volume
     mass, mass_source = _link_mass(link, settings)
     if mass is not None:
+        ratio = mass / total.mass
         total = scaled_to_mass(total, mass)
-        ratio = total.mass / sum(i["mass"] for i in infos if i.get("included"))
         for info in infos:
             if info.get("included"):
                 info.update(mass=info["mass"] * ratio, density=info["density"] * ratio, density_source=mass_source)
     elif defaulted and not (link.declared is not None and link.declared.mass is not None
                             and link.declared.mass.value == 0):
         warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
-                        "--density, a [links] density in --config, or keep the declared mass (--mass-policy keep)")
+                        "{density}, a [links] density in {config}, or keep the declared mass ({mass_policy=keep})")
     boxes = [r.bounds for _, _, r in results if r.bounds is not None]
     bounds = np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)]) \
         if boxes else None
-    overlaps = _overlapping(results)
-    if overlaps:
-        warnings.append(f"link {link.name!r}: geometries {', '.join(f'{a!r} and {b!r}' for a, b in overlaps)} may "
-                        "overlap (their boxes intersect): each is counted whole")
     return LinkProps(total, tuple(infos), tuple(warnings), sum(r.triangles for _, _, r in results), bounds,
-                     mass_source or "density", tuple(results))
-
-
-def _overlapping(results):
-    """Pairs of geometry names whose boxes in the link frame intersect with positive volume."""
-    pairs = []
-    for i in range(len(results)):
-        for j in range(i + 1, len(results)):
-            a, b = results[i][2].bounds, results[j][2].bounds
-            if a is None or b is None:
-                continue
-            if np.all(np.minimum(a[1], b[1]) - np.maximum(a[0], b[0]) > 0):
-                pairs.append((results[i][0].name, results[j][0].name))
-    return pairs
+                     mass_source or "density", tuple(results), solid.checks)

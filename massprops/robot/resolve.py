@@ -25,7 +25,7 @@ import os
 import re
 from dataclasses import dataclass, field
 
-from ..errors import MeshReadError
+from ..errors import MeshReadError, option
 
 __all__ = ["Resolution", "Resolver", "ROS_VARIABLES", "GAZEBO_VARIABLES"]
 
@@ -94,8 +94,8 @@ class Resolver:
                 raise MeshReadError(f"{what} {uri!r}: {resolution.tried[0]}", path=self.model_path,
                                     fix="download the file and give a local path")
             tried = "; ".join(resolution.tried) or "nowhere to look"
-            fix = ("give --package NAME=DIR or set ROS_PACKAGE_PATH" if uri.startswith("package://") else
-                   "set GZ_SIM_RESOURCE_PATH or give --package NAME=DIR" if uri.startswith("model://") else
+            fix = ("give {package} or set ROS_PACKAGE_PATH" if uri.startswith("package://") else
+                   "set GZ_SIM_RESOURCE_PATH or give {package}" if uri.startswith("model://") else
                    "check the path")
             raise MeshReadError(f"{what} {uri!r} not found (tried: {tried})", path=self.model_path, fix=fix)
         return resolution.path
@@ -136,7 +136,7 @@ class Resolver:
 
     def _searched(self, name, scheme):
         """What the rules looked at without finding ``name`` (for the message of a URI not found)."""
-        notes = [] if name in self.packages else [f"no --package {name}=DIR"]
+        notes = [] if name in self.packages else [f"no {option('package')} for {name!r}"]
         variables = ROS_VARIABLES if scheme == "package" else GAZEBO_VARIABLES
         for variable in variables:
             notes.append(f"{variable}={self.environ[variable]}" if self.environ.get(variable) else f"{variable} unset")
@@ -154,7 +154,7 @@ class Resolver:
             tried.append(f"{path} ({by})")
             if os.path.isfile(path):
                 warning = (f"{uri}: resolved by the folder name {ancestor_name!r} above the model (no package.xml "
-                           f"names it) — give --package {ancestor_name}=DIR to be sure") if by == "folder name" else None
+                           f"names it) — give {option('package')} for {ancestor_name!r} to be sure") if by == "folder name" else None
                 return Resolution(uri, os.path.normpath(path), by, tuple(tried), warning)
         return Resolution(uri, None, None, tuple(tried))
 

@@ -173,7 +173,7 @@ class _Reader:
             if resolution.path is not None:
                 return os.path.dirname(resolution.path)
         raise RobotFormatError(f"included model {uri!r} not found", path=self.path,
-                               fix="set GZ_SIM_RESOURCE_PATH or give --package NAME=DIR")
+                               fix="set GZ_SIM_RESOURCE_PATH or give {package}")
 
 
 def _model_file(folder):
@@ -383,7 +383,7 @@ def _joined(links, joint_elements, frames, path):
             # A kinematic loop (SDF allows them): the link keeps the pose the file gives it; this joint is not
             # followed when the robot is posed.
             loops.append(f"joint {scope + name!r} closes a kinematic loop (link {child!r} already has a parent): "
-                         "it is not followed for --joints")
+                         "it is not followed for {joints}")
             continue
         joints.append(Joint(scope + name, kind, parent or "world", child, axis, point))
         if parent is not None:

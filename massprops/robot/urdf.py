@@ -21,7 +21,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MassPropsError, OptionError
+from ..errors import MassPropsError, OptionError, option
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
@@ -203,7 +203,7 @@ def _find_through(resolver):
         if folder is None:
             tried = resolver.log[(f"$(find {package})", None)].tried
             raise MassPropsError(f"$(find {package}): package not found (tried: {'; '.join(tried) or 'nowhere'})",
-                                 path=resolver.model_path, fix=f"give --package {package}=DIR")
+                                 path=resolver.model_path, fix=f"give {option('package')} for {package!r}")
         return folder
 
     import xacro

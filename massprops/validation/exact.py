@@ -9,6 +9,7 @@ Vectorised over numpy object arrays: about a second per 100k triangles.
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -32,13 +33,24 @@ def _integers(values):
     shift = np.where(nonzero, exponent - e, 0)
     return odd.astype(object) * (2 ** shift.astype(object)), e
 
+def _rational_integers(values):
+    """Object array of Python ints ``n`` and ``unit`` with ``values == n · unit``, for Fractions (or ints)."""
+    values = np.asarray(values, dtype=object)
+    denominator = 1
+    for value in values.ravel().tolist():
+        denominator = math.lcm(denominator, Fraction(value).denominator)
+    ints = np.array([int(Fraction(v) * denominator) for v in values.ravel().tolist()], dtype=object)
+    return ints.reshape(values.shape), Fraction(1, denominator)
+
+
 def exact_properties(triangles):
     """Exact volume, center of mass and inertia about the COM of a closed surface, density 1.
 
     Parameters
     ----------
     triangles : array_like, shape (m, 3, 3)
-        Corner coordinates (floats, taken exactly as given), outward winding.
+        Corner coordinates (floats, taken exactly as given; or Fractions, an
+        object array, for points placed exactly), outward winding.
 
     Returns
     -------
@@ -46,7 +58,11 @@ def exact_properties(triangles):
         ``volume`` (Fraction), ``center_of_mass`` (3 Fractions),
         ``inertia_com`` (3 × 3 nested lists of Fractions, ``J_G'``).
     """
-    ints, e = _integers(triangles)
+    if np.asarray(triangles).dtype == object:
+        ints, unit = _rational_integers(triangles)
+    else:
+        ints, e = _integers(triangles)
+        unit = Fraction(2) ** e
     a, b, c = ints[:, 0], ints[:, 1], ints[:, 2]
     det = (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1]) - a[:, 1] * (b[:, 0] * c[:, 2] - b[:, 2] * c[:, 0])
            + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
@@ -58,7 +74,6 @@ def exact_properties(triangles):
         for j in range(i, 3):
             term = s[:, i] * s[:, j] + a[:, i] * a[:, j] + b[:, i] * b[:, j] + c[:, i] * c[:, j]
             second[i, j] = second[j, i] = int((det * term).sum())
-    unit = Fraction(2) ** e
     volume = Fraction(det_sum, 6)
     g = [Fraction(first[i], 4 * det_sum) for i in range(3)]
     central = [[Fraction(second[i, j], 120) - volume * g[i] * g[j] for j in range(3)] for i in range(3)]

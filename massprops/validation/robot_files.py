@@ -12,7 +12,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from .model import rpy_rotation
+from ..robot.model import rpy_rotation
 
 DENSITY = 2700                      # kg/m³, aluminium
 PACKAGE = "massprops_robot"
@@ -51,7 +51,7 @@ def shortest(value):
 
 def mesh_files(folder, used):
     """Write the meshes named in ``used`` into ``folder``; ``{name: path}``."""
-    from ..validation import solids
+    from . import solids
     from ..io import obj, stl
     os.makedirs(folder, exist_ok=True)
     bracket, box, prism = solids.l_bracket(), solids.box((0.05, 0.05, 0.05)), solids.regular_prism(8, 0.03, 0.04)

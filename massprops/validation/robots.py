@@ -7,16 +7,17 @@ meshes by :func:`massprops.exact.exact_properties` on the coordinates as
 written, a mesh ``scale`` applied to the exact moments as the rational
 decimal it is, primitives by their closed forms with ``π`` taken as the
 rational value of ``math.pi``, poses by the rationals of their float
-rotation matrices, several geometries by exact parallel-axis sums.  Each value
-is rounded once at the end.
+rotation matrices, several geometries by exact parallel-axis sums (less
+the intersection of two overlapping boxes).  Each value is rounded once at
+the end.
 
-The robots have clean links (primitives; scaled, rotated and mirrored meshes;
-several geometries per link; an inertial frame with a rotation), a frame
-link, a link without inertial, an open mesh, and one declared inertial for
-each mistake :mod:`massprops.robot.check` diagnoses.  ``expected.json`` says,
-per format and link, what ``robot props --density 2700`` computes
-(``computed``), what the file declares, and the status and diagnoses
-``robot check`` must give.
+The robots have clean links (primitives; scaled, rotated and mirrored
+meshes; several geometries per link, two of them overlapping; an inertial
+frame with a rotation), a frame link, a link without inertial, an open
+mesh, and one declared inertial for each mistake
+:mod:`massprops.robot.check` diagnoses.  ``expected.json`` says, per format
+and link, what ``robot props --density 2700`` computes (``computed``), what
+the file declares, and the status and diagnoses ``robot check`` must give.
 """
 
 from __future__ import annotations
@@ -29,9 +30,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from .fixture_files import (BRACKET, BRACKET_MM, DENSITY, ELEMENTS, OPEN, PACKAGE, PRISM, matrix, mesh_files, mjcf,
+from .robot_files import (BRACKET, BRACKET_MM, DENSITY, ELEMENTS, OPEN, PACKAGE, PRISM, matrix, mesh_files, mjcf,
                             mul, rational, sdf, transpose, urdf)
-from .model import rpy_rotation
+from ..robot.model import rpy_rotation
 
 __all__ = ["write_robots", "write_sample", "DENSITY", "PACKAGE"]
 
@@ -141,7 +142,7 @@ def _posed(values, xyz, rpy):
 
 
 def _mesh_values(path):
-    from ..validation.exact import exact_properties
+    from .exact import exact_properties
     from ..io import read
     mesh = read(path)
     exact = exact_properties(mesh.vertices[mesh.faces])
@@ -149,16 +150,48 @@ def _mesh_values(path):
 
 
 def exact_link(shapes, meshes, density=DENSITY):
-    """``(mass, center, J)`` of a link's shapes at ``density``, exact Fractions in the link frame."""
+    """``(mass, center, J)`` of a link's shapes at ``density``, exact Fractions in the link frame.
+
+    The shapes are disjoint, except boxes without rotation: where two of those
+    overlap, their intersection (a box) is subtracted, so each point counts once.
+    """
     parts = []
     for shape in shapes:
         values = _mesh_values(meshes[shape.mesh]) if shape.kind == "mesh" else _primitive(shape.kind, shape.size)
         if shape.scale is not None:
             values = _scaled(values, shape.scale)
         parts.append(_posed(values, shape.xyz, shape.rpy))
+    boxes = [s for s in shapes if s.kind == "box" and all(rational(a) == 0 for a in s.rpy)]
+    for k, first in enumerate(boxes):
+        for second in boxes[k + 1:]:
+            common = _box_intersection(first, second)
+            if common is not None:
+                volume, center, inertia = _posed(_primitive("box", {"size": common[0]}), common[1], ("0", "0", "0"))
+                parts.append((-volume, center, [[-x for x in row] for row in inertia]))
     volume, center, inertia = _union(parts)
     rho = Fraction(density)
     return rho * volume, center, [[rho * x for x in row] for row in inertia]
+
+
+def _box_intersection(first, second):
+    """``(size, center)`` of two unrotated boxes' intersection (decimal strings of exact values), or None."""
+    size, center = [], []
+    for k in range(3):
+        low = max(rational(s.xyz[k]) - rational(s.size["size"][k]) / 2 for s in (first, second))
+        high = min(rational(s.xyz[k]) + rational(s.size["size"][k]) / 2 for s in (first, second))
+        if high <= low:
+            return None
+        size.append(high - low)
+        center.append((low + high) / 2)
+    return tuple(map(_decimal, size)), tuple(map(_decimal, center))
+
+
+def _decimal(value):
+    """A Fraction with a finite decimal expansion, as that decimal's text (exact)."""
+    text = f"{float(value)!r}"
+    if rational(text) != value:
+        raise ValueError(f"{value} has no short decimal form")
+    return text
 
 
 def _floats(values):
@@ -183,6 +216,9 @@ def _specs(fmt):
         Spec("multi", (Shape("cylinder", {"radius": "0.03", "length": "0.2"}, xyz=("0", "0", "0.1")),
                        Shape("sphere", {"radius": "0.05"}, xyz=("0", "0", "0.25")),
                        Shape("mesh", xyz=("0.1", "0", "0"), rpy=("0", "0", "0.5"), mesh=PRISM))),
+        # Two boxes that overlap: the link is their union (each point once), as props unites overlapping shells.
+        Spec("overlapping", (Shape("box", {"size": ("0.2", "0.1", "0.1")}, xyz=("0.1", "0.05", "0.05")),
+                             Shape("box", {"size": ("0.1", "0.15", "0.12")}, xyz=("0.15", "0.1", "0.08")))),
         Spec("rotated_frame", (bracket,), declared="rotated"),
         Spec("tool0", (), declared=None, joint="fixed", status="massless"),
         Spec("sensor", (Shape("box", {"size": ("0.02", "0.03", "0.04")}),), declared=None, status="missing"),
@@ -272,7 +308,7 @@ def _typo(inertia):
     raise ValueError("no valid typo")
 
 
-SAMPLE_LINKS = ("base_link", "bracket", "multi", "tool0", "sensor", "flipped", "thin_plate")
+SAMPLE_LINKS = ("base_link", "bracket", "multi", "overlapping", "tool0", "sensor", "flipped", "thin_plate")
 
 
 _FILES = {"urdf": ("urdf/robot.urdf", urdf), "sdf": ("sdf/robot.sdf", sdf), "mjcf": ("mjcf/robot.xml", mjcf)}
