@@ -9,7 +9,7 @@ the error bounds depend.
 - ``massprops.core._core``: readers, welding, edges, shells and the moment
   kernel (``massprops/core/src``);
 - ``massprops.core._intersect``: exact triangle-intersection and
-  point-in-solid predicates (``massprops/core/_intersect.c``).
+  point-in-solid predicates (``massprops/core/src/isect``).
 """
 
 import glob
@@ -19,8 +19,17 @@ import sys
 from setuptools import Extension, setup
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SOURCES = sorted(os.path.relpath(path, HERE) for path in glob.glob(os.path.join(HERE, "massprops/core/src/*.c")))
-HEADERS = sorted(os.path.relpath(path, HERE) for path in glob.glob(os.path.join(HERE, "massprops/core/src/*.h")))
+
+
+def _files(pattern):
+    return sorted(os.path.relpath(path, HERE) for path in glob.glob(os.path.join(HERE, pattern)))
+
+
+SOURCES = _files("massprops/core/src/*.c")
+HEADERS = _files("massprops/core/src/*.h")
+# The intersection search shares the thread loop (parallel.c) and core.h with the core.
+ISECT_SOURCES = _files("massprops/core/src/isect/*.c") + ["massprops/core/src/parallel.c"]
+ISECT_HEADERS = _files("massprops/core/src/isect/*.h") + ["massprops/core/src/core.h"]
 
 if sys.platform == "win32":
     COMPILE = ["/O2", "/fp:strict"]
@@ -33,6 +42,6 @@ else:
 setup(ext_modules=[
     Extension("massprops.core._core", sources=SOURCES, depends=HEADERS, extra_compile_args=COMPILE,
               extra_link_args=LINK),
-    Extension("massprops.core._intersect", ["massprops/core/_intersect.c"], depends=["massprops/core/predicates.h"],
-              extra_compile_args=COMPILE, extra_link_args=LINK, libraries=[] if sys.platform == "win32" else ["m"]),
+    Extension("massprops.core._intersect", ISECT_SOURCES, depends=ISECT_HEADERS, extra_compile_args=COMPILE,
+              extra_link_args=LINK, libraries=[] if sys.platform == "win32" else ["m"]),
 ])

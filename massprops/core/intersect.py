@@ -53,6 +53,9 @@ class Intersections:
         For each shell pair, one pair of faces that meet.
     candidates, tests : int
         Face pairs the grid proposed, and pairs that reached the exact test.
+    certified_shells, certified_vertices : int
+        Shells, and vertices' stars, certified embedded as a whole (their face
+        pairs need no test; see :meth:`ExactGeometry.certificates`).
     """
 
     self_found: np.ndarray
@@ -61,6 +64,8 @@ class Intersections:
     face_pairs: np.ndarray
     candidates: int
     tests: int
+    certified_shells: int = 0
+    certified_vertices: int = 0
 
 
 class ExactGeometry:
@@ -127,15 +132,53 @@ class ExactGeometry:
         shells = np.ascontiguousarray(shells, dtype=np.int64)
         active = (np.ones(faces.shape[0], dtype=np.uint8) if active is None
                   else np.ascontiguousarray(active, dtype=np.uint8))
-        flags, examples, found, candidates, tests = _extension().pairs(
+        flags, examples, found, candidates, tests, shells_certified, vertices_certified = _extension().pairs(
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
             int(max_examples), int(threads))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
-        order = np.lexsort((found[:, 1], found[:, 0]))
-        found = found[order]
+        # Each shell pair once, with the faces found first (the search's order does not depend on threads).
+        found = found[np.lexsort((found[:, 1], found[:, 0]))]
+        first = np.ones(found.shape[0], dtype=bool)
+        first[1:] = np.any(found[1:, :2] != found[:-1, :2], axis=1)
+        found = found[first]
         return Intersections(np.frombuffer(flags, dtype=np.uint8).astype(bool)[:n_shells],
                              np.frombuffer(examples, dtype=np.int64).reshape(-1, 2).copy(),
-                             found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests))
+                             found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),
+                             int(shells_certified), int(vertices_certified))
+
+    def certificates(self, faces, shells=None, n_shells=1, *, threads=None):
+        """Which vertex stars and which shells are certified to meet themselves only where they share.
+
+        A vertex's star (its faces) is certified when, seen along some
+        direction, its faces turn once around it in one sense; a shell, when
+        it is star-shaped about its centroid in the same exact sense.  A
+        certificate is a proof: the faces it covers meet only along the
+        vertices and edges they share.  A missing one proves nothing.
+
+        Parameters
+        ----------
+        faces : ndarray, shape (m, 3), int
+        shells : ndarray, shape (m,), int, optional
+            Shell label of each face (default: one shell).
+
+        Returns
+        -------
+        stars : ndarray, shape (n,), bool
+            Per vertex: its star is certified (only computed for vertices of shells
+            not certified as a whole).
+        shells : ndarray, shape (n_shells,), bool
+            Per shell: certified as a whole.
+        """
+        from .threads import thread_count
+
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        shells = (np.zeros(faces.shape[0], dtype=np.int64) if shells is None
+                  else np.ascontiguousarray(shells, dtype=np.int64))
+        if threads is None:
+            threads = thread_count() if faces.shape[0] > _PARALLEL_ABOVE else 1
+        stars, whole = _extension().certificates(self.vertices, faces, shells, max(1, int(n_shells)), int(threads))
+        return (np.frombuffer(stars, dtype=np.uint8).astype(bool),
+                np.frombuffer(whole, dtype=np.uint8).astype(bool)[:n_shells])
 
     def winding(self, faces, points):
         """Winding numbers of the closed surface ``faces`` about vertices ``points``.

@@ -46,6 +46,9 @@ void grow_free(Growable *g);
  * thread ran which block. */
 typedef void (*block_fn)(void *ctx, int64_t block);
 void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx);
+/* The same loop, fn told which worker (0 .. threads - 1) runs the block: for per-worker scratch. */
+typedef void (*worker_fn)(void *ctx, int worker, int64_t block);
+void parallel_workers(int threads, int64_t blocks, worker_fn fn, void *ctx);
 
 /* ---- welding (weld.c) ---------------------------------------------------------------- */
 

@@ -1,10 +1,9 @@
-/* Failures, growable arrays, the parallel block loop, and safe file reading. */
+/* Failures, growable arrays and safe file reading. */
 #define _GNU_SOURCE
 #include "core.h"
 
 #include <errno.h>
 #include <fcntl.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -46,47 +45,6 @@ void grow_free(Growable *g)
     free(g->data);
     g->data = NULL;
     g->size = g->capacity = 0;
-}
-
-/* ---- parallel blocks ------------------------------------------------------------------ */
-
-typedef struct {
-    block_fn fn;
-    void *ctx;
-    int64_t blocks;
-    int64_t next;             /* shared counter, taken with __atomic_fetch_add */
-} Loop;
-
-static void *run_blocks(void *arg)
-{
-    Loop *loop = arg;
-    for (;;) {
-        int64_t block = __atomic_fetch_add(&loop->next, 1, __ATOMIC_RELAXED);
-        if (block >= loop->blocks)
-            return NULL;
-        loop->fn(loop->ctx, block);
-    }
-}
-
-#define MAX_THREADS 64
-
-void parallel_blocks(int threads, int64_t blocks, block_fn fn, void *ctx)
-{
-    Loop loop = {fn, ctx, blocks, 0};
-    pthread_t ids[MAX_THREADS];
-    int started = 0, k;
-    if (threads > MAX_THREADS)
-        threads = MAX_THREADS;
-    if (threads > blocks)
-        threads = (int)blocks;
-    for (k = 1; k < threads; k++) {
-        if (pthread_create(&ids[started], NULL, run_blocks, &loop) != 0)
-            break;                               /* fewer threads: the same blocks, the same results */
-        started++;
-    }
-    run_blocks(&loop);
-    for (k = 0; k < started; k++)
-        pthread_join(ids[k], NULL);
 }
 
 /* ---- files ------------------------------------------------------------------------------ */

@@ -1,0 +1,381 @@
+/* The broad phase: a hierarchical grid of the faces' boxes.
+ *
+ * Cells of level l are cubes of side base * 2**l from a common origin; a face
+ * goes to the finest level whose cells are at least its box's extent, and is
+ * entered in every cell of that level its box covers.  A cell's coordinates
+ * are the level-0 cell of a point shifted right by l (floor division by 2**l
+ * of a floor is the floor of the quotient), so the cells of every level are
+ * computed from one rounding of each coordinate, and the cell of a point is
+ * monotone in it: two faces whose closed boxes meet share the cell of
+ * max(their lower corners) at the coarser of their levels (search.c).
+ *
+ * Faces whose stars share a hub (a certified vertex of large degree: the
+ * centre of a fan of needles) are consecutive in the sorted order, so a cell
+ * lists them together and the search skips their pairs as a block instead of
+ * one by one: any two faces of a certified star meet only along what they
+ * share (stars.c).
+ */
+#include "isect.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A certified vertex with at least this many faces groups them (below, pairs are skipped one
+ * by one, which costs less than the grouping). */
+#define HUB_DEGREE 16
+
+/* LSD radix sort on 8-bit digits, histograms in one pass, digits every key shares skipped. */
+int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64_t n)
+{
+    size_t (*count)[256] = calloc(8, sizeof(*count));
+    if (!count)
+        return -1;
+    for (int64_t i = 0; i < n; i++) {
+        uint64_t k = key[i];
+        for (int d = 0; d < 8; d++)
+            count[d][(k >> (8 * d)) & 0xFF]++;
+    }
+    uint64_t *src_k = key, *dst_k = tk;
+    uint32_t *src_v = value, *dst_v = tv;
+    for (int d = 0; d < 8; d++) {
+        int shift = 8 * d;
+        if (n == 0 || count[d][(key[0] >> shift) & 0xFF] == (size_t)n)
+            continue;
+        size_t sum = 0;
+        for (int b = 0; b < 256; b++) {
+            size_t c = count[d][b];
+            count[d][b] = sum;
+            sum += c;
+        }
+        for (int64_t i = 0; i < n; i++) {
+            size_t slot = count[d][(src_k[i] >> shift) & 0xFF]++;
+            dst_k[slot] = src_k[i];
+            dst_v[slot] = src_v[i];
+        }
+        uint64_t *xk = src_k;
+        src_k = dst_k;
+        dst_k = xk;
+        uint32_t *xv = src_v;
+        src_v = dst_v;
+        dst_v = xv;
+    }
+    if (src_k != key) {
+        memcpy(key, src_k, sizeof(uint64_t) * n);
+        memcpy(value, src_v, sizeof(uint32_t) * n);
+    }
+    free(count);
+    return 0;
+}
+
+static inline uint64_t spread21(uint64_t x)
+{
+    x &= 0x1FFFFF;
+    x = (x | x << 32) & 0x1F00000000FFFFULL;
+    x = (x | x << 16) & 0x1F0000FF0000FFULL;
+    x = (x | x << 8) & 0x100F00F00F00F00FULL;
+    x = (x | x << 4) & 0x10C30C30C30C30C3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+}
+
+static inline uint64_t compact21(uint64_t x)
+{
+    x &= 0x1249249249249249ULL;
+    x = (x | x >> 2) & 0x10C30C30C30C30C3ULL;
+    x = (x | x >> 4) & 0x100F00F00F00F00FULL;
+    x = (x | x >> 8) & 0x1F0000FF0000FFULL;
+    x = (x | x >> 16) & 0x1F00000000FFFFULL;
+    x = (x | x >> 32) & 0x1FFFFF;
+    return x;
+}
+
+uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k)
+{
+    return ((uint64_t)level << LEVEL_SHIFT) | spread21((uint64_t)i) | spread21((uint64_t)j) << 1
+           | spread21((uint64_t)k) << 2;
+}
+
+void grid_key_cell(uint64_t key, int64_t *cell)
+{
+    cell[0] = (int64_t)compact21(key);
+    cell[1] = (int64_t)compact21(key >> 1);
+    cell[2] = (int64_t)compact21(key >> 2);
+}
+
+int64_t grid_find(const Grid *g, int level, uint64_t key)
+{
+    int64_t lo = g->level_begin[level], hi = g->level_begin[level + 1];
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (g->key[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < g->level_begin[level + 1] && g->key[lo] == key ? lo : -1;
+}
+
+void grid_free(Grid *g)
+{
+    free(g->id), free(g->corner), free(g->shell), free(g->lo), free(g->hi), free(g->low_cell), free(g->axis),
+        free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key), free(g->face);
+    memset(g, 0, sizeof(*g));
+}
+
+static int compare_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static inline double face_extent(const double *lo, const double *hi)
+{
+    return dmax(hi[0] - lo[0], dmax(hi[1] - lo[1], hi[2] - lo[2]));
+}
+
+/* The hub of face t: its certified corner of largest degree (at least HUB_DEGREE), else -1. */
+static int64_t hub_of(const Stars *stars, const int64_t *F, int64_t t)
+{
+    int64_t hub = -1, best = HUB_DEGREE - 1;
+    for (int k = 0; k < 3; k++) {
+        int64_t v = F[3 * t + k];
+        if ((stars->flag[v] & STAR_EMBEDDED) && star_degree(stars, v) > best) {
+            best = star_degree(stars, v);
+            hub = v;
+        }
+    }
+    return hub;
+}
+
+/* The order of the faces taken: faces without a hub in input order (exporters write
+ * neighbouring faces near each other), then those with one, by hub. */
+static int64_t *face_order(const int64_t *F, const int8_t *axis, int64_t m, int64_t n, const Stars *stars,
+                           int64_t **hub_out)
+{
+    int64_t *order = malloc(sizeof(int64_t) * (n ? n : 1));
+    int64_t *hub = malloc(sizeof(int64_t) * (n ? n : 1));
+    if (!order || !hub) {
+        free(order), free(hub);
+        return NULL;
+    }
+    int64_t s = 0, grouped = 0;
+    for (int64_t t = 0; t < m; t++)
+        if (axis[t] >= 0) {
+            int64_t h = stars ? hub_of(stars, F, t) : -1;
+            if (h < 0) {
+                hub[s] = -1;
+                order[s++] = t;
+            } else
+                grouped++;
+        }
+    if (grouped) {
+        uint64_t *key = malloc(sizeof(uint64_t) * grouped), *tk = malloc(sizeof(uint64_t) * grouped);
+        uint32_t *value = malloc(sizeof(uint32_t) * grouped), *tv = malloc(sizeof(uint32_t) * grouped);
+        int sorted = -1;
+        if (key && tk && value && tv) {
+            int64_t g = 0;
+            for (int64_t t = 0; t < m; t++)
+                if (axis[t] >= 0) {
+                    int64_t h = hub_of(stars, F, t);
+                    if (h >= 0) {
+                        key[g] = (uint64_t)h;
+                        value[g++] = (uint32_t)t;
+                    }
+                }
+            sorted = radix_sort(key, value, tk, tv, grouped);
+            for (int64_t i = 0; sorted == 0 && i < grouped; i++) {
+                hub[s] = (int64_t)key[i];
+                order[s++] = value[i];
+            }
+        }
+        free(key), free(tk), free(value), free(tv);
+        if (sorted < 0) {
+            free(order), free(hub);
+            return NULL;
+        }
+    }
+    *hub_out = hub;
+    return order;
+}
+
+/* The finest cell: twice the largest sampled face extent when that extent is at most twice the
+ * 90th percentile (one level: no lookups across levels; cells twice the faces' size keep the
+ * entries near 2.5 a face), else that percentile (larger faces go up a level per doubling);
+ * never below 2**-17 of the whole, so cell indices fit INDEX_BITS. */
+static int choose_base(Grid *g, double whole, double *base)
+{
+    int64_t n = g->n;
+    int samples = n < 4096 ? (int)n : 4096;
+    double *extent = malloc(sizeof(double) * samples);
+    if (!extent)
+        return -1;
+    for (int s = 0; s < samples; s++) {
+        int64_t t = (int64_t)((double)s * n / samples);
+        extent[s] = face_extent(g->lo + 3 * t, g->hi + 3 * t);
+    }
+    qsort(extent, samples, sizeof(double), compare_double);
+    double b = extent[(samples * 9) / 10];
+    if (extent[samples - 1] <= 2.0 * b)
+        b = 2.0 * extent[samples - 1];
+    free(extent);
+    double floor_size = ldexp(whole, -(INDEX_BITS - 2));
+    *base = b > floor_size ? b : floor_size;
+    return 0;
+}
+
+static int fill_faces(Grid *g, const int64_t *F, const int64_t *shell, const int8_t *axis, const int64_t *order,
+                      const int64_t *hub, const Stars *stars)
+{
+    int64_t n = g->n;
+    g->id = malloc(sizeof(uint32_t) * n);
+    g->corner = malloc(sizeof(int64_t) * 3 * n);
+    g->shell = malloc(sizeof(int64_t) * n);
+    g->lo = malloc(sizeof(double) * 3 * n);
+    g->hi = malloc(sizeof(double) * 3 * n);
+    g->low_cell = malloc(sizeof(int32_t) * 3 * n);
+    g->axis = malloc(n);
+    g->level = malloc(n);
+    g->certified = malloc(n);
+    g->group_begin = malloc(sizeof(uint32_t) * n);
+    g->group_end = malloc(sizeof(uint32_t) * n);
+    if (!g->id || !g->corner || !g->shell || !g->lo || !g->hi || !g->low_cell || !g->axis || !g->level
+        || !g->certified || !g->group_begin || !g->group_end)
+        return -1;
+    for (int64_t s = 0; s < n; s++) {
+        int64_t t = order[s];
+        g->id[s] = (uint32_t)t;
+        g->shell[s] = shell[t];
+        g->axis[s] = axis[t];
+        uint8_t certified = 0;
+        for (int k = 0; k < 3; k++) {
+            int64_t v = F[3 * t + k];
+            g->corner[3 * s + k] = v;
+            if (stars && (stars->flag[v] & STAR_EMBEDDED))
+                certified |= (uint8_t)(1 << k);
+        }
+        g->certified[s] = certified;
+        for (int k = 0; k < 3; k++) {
+            P a = g->V + 3 * F[3 * t], b = g->V + 3 * F[3 * t + 1], c = g->V + 3 * F[3 * t + 2];
+            g->lo[3 * s + k] = dmin(a[k], dmin(b[k], c[k]));
+            g->hi[3 * s + k] = dmax(a[k], dmax(b[k], c[k]));
+        }
+    }
+    for (int64_t s = 0; s < n;) {
+        int64_t e = s + 1;
+        while (hub[s] >= 0 && e < n && hub[e] == hub[s])
+            e++;
+        for (int64_t i = s; i < e; i++) {
+            g->group_begin[i] = (uint32_t)s;
+            g->group_end[i] = (uint32_t)e;
+        }
+        s = e;
+    }
+    return 0;
+}
+
+int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+               const Stars *stars)
+{
+    memset(g, 0, sizeof(*g));
+    g->V = V;
+    int8_t *axis = malloc(m ? m : 1);
+    if (!axis)
+        return -1;
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    int64_t n = 0;
+    for (int64_t t = 0; t < m; t++) {
+        axis[t] = -1;
+        if (!take[t])
+            continue;
+        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
+        axis[t] = (int8_t)triangle_axis(a, b, c);
+        if (axis[t] < 0)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            glo[k] = dmin(glo[k], dmin(a[k], dmin(b[k], c[k])));
+            ghi[k] = dmax(ghi[k], dmax(a[k], dmax(b[k], c[k])));
+        }
+        n++;
+    }
+    if (n == 0 || n >= ((int64_t)1 << 32)) {
+        free(axis);
+        return n == 0 ? 0 : -1;
+    }
+    g->n = n;
+    int64_t *hub = NULL, *order = face_order(F, axis, m, n, stars, &hub);
+    int status = order ? fill_faces(g, F, shell, axis, order, hub, stars) : -1;
+    free(axis), free(order), free(hub);
+    if (status < 0)
+        return -1;
+    double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2])), base;
+    if (!(whole > 0.0))
+        whole = 1.0;
+    if (choose_base(g, whole, &base) < 0)
+        return -1;
+    for (int k = 0; k < 3; k++)
+        g->origin[k] = glo[k];
+    g->inverse = 1.0 / base;
+    /* Level l has cells of side base * 2**l: a face's level is the first whose side reaches its
+     * extent.  Its cells are its level-0 cells shifted right by l. */
+    int64_t n_entries = 0;
+    for (int64_t t = 0; t < n; t++) {
+        double e = face_extent(g->lo + 3 * t, g->hi + 3 * t), size = base;
+        int level = 0;
+        while (level < MAX_LEVEL && e > size) {
+            level++;
+            size = ldexp(base, level);
+        }
+        g->level[t] = (int8_t)level;
+        g->used[level] = 1;
+        int64_t count = 1;
+        for (int k = 0; k < 3; k++) {
+            int64_t c0 = grid_cell0(g, k, g->lo[3 * t + k]), c1 = grid_cell0(g, k, g->hi[3 * t + k]);
+            g->low_cell[3 * t + k] = (int32_t)c0;
+            count *= (c1 >> level) - (c0 >> level) + 1;
+        }
+        n_entries += count;
+    }
+    int used_levels[MAX_LEVEL + 1];
+    g->n_used = 0;
+    for (int level = 0; level <= MAX_LEVEL; level++)
+        if (g->used[level])
+            used_levels[g->n_used++] = level;
+    memcpy(g->used, used_levels, sizeof(int) * g->n_used);
+    g->n_entries = n_entries;
+    g->key = malloc(sizeof(uint64_t) * n_entries);
+    g->face = malloc(sizeof(uint32_t) * n_entries);
+    uint64_t *tk = malloc(sizeof(uint64_t) * n_entries);
+    uint32_t *tv = malloc(sizeof(uint32_t) * n_entries);
+    if (!g->key || !g->face || !tk || !tv) {
+        free(tk), free(tv);
+        return -1;
+    }
+    int64_t e = 0;
+    for (int64_t t = 0; t < n; t++) {
+        int level = g->level[t];
+        int64_t c0[3], c1[3];
+        for (int k = 0; k < 3; k++) {
+            c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
+            c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
+        }
+        for (int64_t a = c0[0]; a <= c1[0]; a++)
+            for (int64_t b = c0[1]; b <= c1[1]; b++)
+                for (int64_t c = c0[2]; c <= c1[2]; c++) {
+                    g->key[e] = grid_key(level, a, b, c);
+                    g->face[e] = (uint32_t)t;
+                    e++;
+                }
+    }
+    int sorted = radix_sort(g->key, g->face, tk, tv, n_entries);
+    free(tk), free(tv);
+    if (sorted < 0)
+        return -1;
+    int64_t x = 0;
+    for (int level = 0; level <= MAX_LEVEL + 1; level++) {
+        while (x < n_entries && (int)(g->key[x] >> LEVEL_SHIFT) < level)
+            x++;
+        g->level_begin[level] = x;
+    }
+    return 0;
+}

@@ -1,0 +1,125 @@
+/* Shared declarations of massprops.core._intersect: exact triangle-intersection search.
+ *
+ * The caller passes coordinates scaled to about unit size whose non-zero
+ * magnitudes are at least 2**-200, so no product of coordinate differences
+ * under- or overflows and the predicates (predicates.h) are exact.  Every
+ * "these faces do not meet" comes from one of three places, each proved in
+ * its file:
+ *
+ *   stars.c   certificates that a vertex's star, or a whole shell, is
+ *             embedded (its faces meet only along what they share);
+ *   search.c  a float plane-separation filter with a certified bound, then
+ *             the exact closed-set tests of predicates.h;
+ *   grid.c    the broad phase: faces whose boxes are disjoint never meet.
+ *
+ * Nothing here touches Python objects except module.c; the rest runs
+ * without the GIL, on up to `threads` threads (parallel_workers, ../parallel.c).
+ */
+#ifndef MASSPROPS_ISECT_H
+#define MASSPROPS_ISECT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core.h"
+#include "predicates.h"
+
+/* ---- stars.c: which faces are known to meet only along what they share ---------------- */
+
+enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2 };
+
+typedef struct {
+    const double *V;
+    const int64_t *F;
+    int64_t n, m;             /* vertices, faces */
+    int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
+    uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
+    uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
+    uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
+    int64_t certified_vertices, certified_shells;
+} Stars;
+
+/* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
+ * memory ran out (then nothing is certified: every pair is tested).  Faces need
+ * 0 <= F < n and m < 2**30. */
+int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
+                int64_t n_shells, const uint8_t *wanted, int threads);
+void stars_free(Stars *s);
+
+static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v + 1] - s->begin[v]; }
+
+/* ---- grid.c: faces in space order and a hierarchical grid of their boxes --------------- */
+
+#define MAX_LEVEL 40
+#define INDEX_BITS 19
+#define LEVEL_SHIFT (3 * INDEX_BITS)
+
+typedef struct {
+    const double *V;
+    int64_t n;                /* faces taken (active, of non-zero area, and needed) */
+    uint32_t *id;             /* original face index */
+    int64_t *corner;          /* 3 per face */
+    int64_t *shell;
+    double *lo, *hi;          /* 3 per face: the face's box */
+    int32_t *low_cell;        /* 3 per face: level-0 cell of lo */
+    int8_t *axis, *level;
+    uint8_t *certified;       /* bit k: the star of corner k is certified embedded */
+    uint32_t *group_begin, *group_end;   /* faces sharing a hub vertex: consecutive, [begin, end) */
+    /* grid: cells of level l have side base * 2**l; a cell's coordinates are level-0 cells >> l */
+    double origin[3], inverse;            /* 1 / base */
+    int used[MAX_LEVEL + 1], n_used;
+    int64_t level_begin[MAX_LEVEL + 2];   /* entries of each level: [begin[l], begin[l + 1]) */
+    int64_t n_entries;
+    uint64_t *key;            /* per entry, sorted: level << LEVEL_SHIFT | Morton code of the cell */
+    uint32_t *face;           /* per entry: index into the sorted faces, ascending within a key */
+} Grid;
+
+/* The grid of the faces with take[t] set (and non-zero area); 0, or -1 when memory ran out.
+ * `stars` (or NULL) gives the certified corners and the hubs that group faces. */
+int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+               const Stars *stars);
+void grid_free(Grid *g);
+
+/* x is never below the origin, so truncation is the floor. */
+static inline int64_t grid_cell0(const Grid *g, int axis, double x)
+{
+    return (int64_t)((x - g->origin[axis]) * g->inverse);
+}
+
+uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k);
+void grid_key_cell(uint64_t key, int64_t *cell);
+/* First entry with this key (within its level's range), or -1. */
+int64_t grid_find(const Grid *g, int level, uint64_t key);
+
+/* Sort (key, value) pairs by key, stably; tk, tv: scratch of n entries.  0, or -1 out of memory. */
+int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64_t n);
+
+/* ---- search.c: the pair search ------------------------------------------------------- */
+
+typedef struct {
+    uint8_t *self_found;      /* per shell */
+    int64_t *examples;        /* 2 per example: original face indices, in search order */
+    int64_t n_examples;
+    int64_t *found;           /* 4 per meeting shell pair: shells, then original faces */
+    int64_t n_found;
+    int64_t candidates, tests;
+} Found;
+
+/* Pairs of faces that meet: within a shell (other than along what they share) when `within`,
+ * between shells when `between`.  0, or -1 when memory ran out.  The result does not depend
+ * on the thread count. */
+int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active, int64_t n,
+                 int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int threads,
+                 Found *out, Stars *stars);
+void found_free(Found *f);
+
+/* ---- winding.c ---------------------------------------------------------------------- */
+
+enum { RAY_OK = 0, RAY_DEGENERATE = 1, RAY_ON_SURFACE = 2, RAY_MEMORY = 3 };
+
+/* Winding numbers of the closed surface (V, F) about points[0..k); RAY_OK, or the status of
+ * point *bad. */
+int winding_numbers(const double *V, const int64_t *F, int64_t m, const double *points, int64_t k, int64_t *out,
+                    int64_t *bad);
+
+#endif

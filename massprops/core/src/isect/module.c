@@ -1,0 +1,301 @@
+/* massprops.core._intersect: exact triangle intersection and point-in-solid tests (isect.h).
+ *
+ * Entry points (the GIL is released while they run):
+ *   degenerate(V, F, out)            which triangles have zero area (exactly)
+ *   pairs(V, F, shell, active, ...)  triangle pairs that intersect (search.c), in threads
+ *   certificates(V, F, shell, ...)   which stars and shells are certified embedded (stars.c)
+ *   winding(V, F, points)            winding numbers of points off the surface (winding.c)
+ *   orient3d_signs(P)                a batch of the predicate
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "isect.h"
+
+/* ---- buffers ------------------------------------------------------------------------------- */
+
+static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t itemsize, int writable, const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (view->len % itemsize != 0) {
+        PyErr_Format(PyExc_ValueError, "%s: expected items of %zd bytes", name, itemsize);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+/* The buffers of vertices (float64), faces (int64) and a third array; all or none are held. */
+static int get_three(PyObject *vo, PyObject *fo, PyObject *xo, Py_buffer *vb, Py_buffer *fb, Py_buffer *xb,
+                     Py_ssize_t x_itemsize, int x_writable, const char *x_name)
+{
+    if (get_buffer(vo, vb, 8, 0, "vertices") < 0)
+        return -1;
+    if (get_buffer(fo, fb, 8, 0, "faces") < 0) {
+        PyBuffer_Release(vb);
+        return -1;
+    }
+    if (get_buffer(xo, xb, x_itemsize, x_writable, x_name) < 0) {
+        PyBuffer_Release(vb);
+        PyBuffer_Release(fb);
+        return -1;
+    }
+    return 0;
+}
+
+/* Faces index vertices [0, n); NULL or a message. */
+static const char *bad_faces(const int64_t *F, Py_ssize_t m, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < 3 * m; i++)
+        if (F[i] < 0 || F[i] >= n)
+            return "a face names a vertex that does not exist";
+    return NULL;
+}
+
+static PyObject *py_degenerate(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *oo;
+    Py_buffer vb, fb, ob;
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &oo) || get_three(vo, fo, oo, &vb, &fb, &ob, 1, 1, "out") < 0)
+        return NULL;
+    const double *V = vb.buf;
+    const int64_t *F = fb.buf;
+    uint8_t *out = ob.buf;
+    Py_ssize_t m = fb.len / 24;
+    const char *bad = ob.len < m ? "out needs one entry per face" : NULL;
+    Py_BEGIN_ALLOW_THREADS
+    if (!bad)
+        bad = bad_faces(F, m, vb.len / 24);
+    for (Py_ssize_t t = 0; t < m && !bad; t++)
+        out[t] = triangle_axis(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]) < 0;
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&ob);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+/* Shell labels in [0, n_shells); NULL or a message. */
+static const char *bad_shells(const int64_t *shell, Py_ssize_t m, Py_ssize_t n_shells)
+{
+    for (Py_ssize_t t = 0; t < m; t++)
+        if (shell[t] < 0 || shell[t] >= n_shells)
+            return "a shell label is out of range";
+    return NULL;
+}
+
+#define MAX_THREADS 64
+
+static PyObject *py_pairs(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *so, *ao;
+    Py_ssize_t n_shells, max_examples;
+    int within, between, threads;
+    if (!PyArg_ParseTuple(args, "OOOOnppni", &vo, &fo, &so, &ao, &n_shells, &within, &between, &max_examples,
+                          &threads))
+        return NULL;
+    if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31) || max_examples < 0) {
+        PyErr_SetString(PyExc_ValueError, "shell count or example count out of range");
+        return NULL;
+    }
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, sb, ab;
+    if (get_three(vo, fo, so, &vb, &fb, &sb, 8, 0, "shell") < 0)
+        return NULL;
+    if (get_buffer(ao, &ab, 1, 0, "active") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&sb);
+        return NULL;
+    }
+    PyObject *result = NULL;
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24;
+    const char *bad = NULL;
+    int status = 0;
+    Found found;
+    Stars stars;
+    memset(&found, 0, sizeof(found));
+    memset(&stars, 0, sizeof(stars));
+    if (sb.len / 8 != m || ab.len != m)
+        bad = "shell and active need one entry per face";
+    if (!bad) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        if (!bad)
+            bad = bad_shells(sb.buf, m, n_shells);
+        if (!bad)
+            status = search_pairs(vb.buf, fb.buf, sb.buf, ab.buf, n, m, n_shells, within, between, max_examples,
+                                  threads, &found, &stars);
+        Py_END_ALLOW_THREADS
+    }
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    else if (status < 0)
+        PyErr_NoMemory();
+    else {
+        PyObject *flags = PyBytes_FromStringAndSize((const char *)found.self_found, n_shells);
+        PyObject *examples = PyBytes_FromStringAndSize((const char *)found.examples, 16 * found.n_examples);
+        PyObject *pairs = PyBytes_FromStringAndSize((const char *)found.found, 32 * found.n_found);
+        if (flags && examples && pairs)
+            result = Py_BuildValue("NNNLLLL", flags, examples, pairs, (long long)found.candidates,
+                                   (long long)found.tests, (long long)stars.certified_shells,
+                                   (long long)stars.certified_vertices);
+        else {
+            Py_XDECREF(flags);
+            Py_XDECREF(examples);
+            Py_XDECREF(pairs);
+        }
+    }
+    found_free(&found);
+    stars_free(&stars);
+    PyBuffer_Release(&ab), PyBuffer_Release(&sb), PyBuffer_Release(&fb), PyBuffer_Release(&vb);
+    return result;
+}
+
+static PyObject *py_certificates(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *so;
+    Py_ssize_t n_shells;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOni", &vo, &fo, &so, &n_shells, &threads))
+        return NULL;
+    if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31)) {
+        PyErr_SetString(PyExc_ValueError, "shell count out of range");
+        return NULL;
+    }
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, sb;
+    if (get_three(vo, fo, so, &vb, &fb, &sb, 8, 0, "shell") < 0)
+        return NULL;
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24;
+    const char *bad = sb.len / 8 != m ? "shell needs one entry per face"
+                      : m >= ((Py_ssize_t)1 << 30) ? "too many faces" : NULL;
+    int status = 0;
+    Stars stars;
+    memset(&stars, 0, sizeof(stars));
+    uint8_t *wanted = calloc(n_shells, 1);
+    if (!bad && wanted) {
+        memset(wanted, 1, n_shells);
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        if (!bad)
+            bad = bad_shells(sb.buf, m, n_shells);
+        if (!bad)
+            status = stars_build(&stars, vb.buf, fb.buf, n, m, sb.buf, n_shells, wanted, threads);
+        Py_END_ALLOW_THREADS
+    }
+    PyObject *result = NULL;
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    else if (!wanted || status < 0)
+        PyErr_NoMemory();
+    else {
+        PyObject *vertices = PyBytes_FromStringAndSize(NULL, n), *shells = PyBytes_FromStringAndSize(NULL, n_shells);
+        if (vertices && shells) {
+            uint8_t *flag = (uint8_t *)PyBytes_AS_STRING(vertices);
+            for (Py_ssize_t v = 0; v < n; v++)
+                flag[v] = (stars.flag[v] & STAR_EMBEDDED) != 0;
+            memcpy(PyBytes_AS_STRING(shells), stars.shell_embedded, n_shells);
+            result = Py_BuildValue("NN", vertices, shells);
+        } else {
+            Py_XDECREF(vertices);
+            Py_XDECREF(shells);
+        }
+    }
+    free(wanted);
+    stars_free(&stars);
+    PyBuffer_Release(&sb), PyBuffer_Release(&fb), PyBuffer_Release(&vb);
+    return result;
+}
+
+/* ---- winding numbers by exact ray parity --------------------------------------------------- */
+
+static PyObject *py_winding(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *po;
+    Py_buffer vb, fb, pb;
+    if (!PyArg_ParseTuple(args, "OOO", &vo, &fo, &po) || get_three(vo, fo, po, &vb, &fb, &pb, 8, 0, "points") < 0)
+        return NULL;
+    Py_ssize_t m = fb.len / 24, k = pb.len / 24;
+    PyObject *out = PyBytes_FromStringAndSize(NULL, 8 * k);
+    int status = RAY_OK;
+    int64_t bad = -1;
+    const char *invalid = NULL;
+    if (out) {
+        Py_BEGIN_ALLOW_THREADS
+        invalid = bad_faces(fb.buf, m, vb.len / 24);
+        if (!invalid)
+            status = winding_numbers(vb.buf, fb.buf, m, pb.buf, k, (int64_t *)PyBytes_AS_STRING(out), &bad);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&pb);
+    if (!out)
+        return NULL;
+    if (invalid || status != RAY_OK) {
+        Py_DECREF(out);
+        if (invalid)
+            PyErr_SetString(PyExc_ValueError, invalid);
+        else if (status == RAY_MEMORY)
+            PyErr_NoMemory();
+        else if (status == RAY_ON_SURFACE)
+            PyErr_Format(PyExc_ValueError, "point %lld lies on the surface", (long long)bad);
+        else
+            PyErr_Format(PyExc_RuntimeError, "no generic ray found for point %lld", (long long)bad);
+        return NULL;
+    }
+    return out;
+}
+
+/* ---- batches of the predicates -------------------------------------------------------------- */
+
+static PyObject *py_orient3d_signs(PyObject *self, PyObject *args)
+{
+    PyObject *po;
+    if (!PyArg_ParseTuple(args, "O", &po))
+        return NULL;
+    Py_buffer pb;
+    if (get_buffer(po, &pb, 8, 0, "points") < 0)
+        return NULL;
+    Py_ssize_t k = pb.len / 96;
+    PyObject *out = PyBytes_FromStringAndSize(NULL, k);
+    if (out) {
+        const double *x = pb.buf;
+        int8_t *s = (int8_t *)PyBytes_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < k; i++)
+            s[i] = (int8_t)orient3d(x + 12 * i, x + 12 * i + 3, x + 12 * i + 6, x + 12 * i + 9);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&pb);
+    return out;
+}
+
+static PyMethodDef methods[] = {
+    {"degenerate", py_degenerate, METH_VARARGS,
+     "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
+    {"pairs", py_pairs, METH_VARARGS,
+     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples, threads)\n"
+     "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
+     "certified vertices)"},
+    {"certificates", py_certificates, METH_VARARGS,
+     "certificates(vertices, faces, shell, n_shells, threads) -> (per vertex: star certified embedded,\n"
+     "per shell: shell certified embedded), bytes of 0/1"},
+    {"winding", py_winding, METH_VARARGS, "winding(vertices, faces, points) -> int64 winding numbers (bytes)"},
+    {"orient3d_signs", py_orient3d_signs, METH_VARARGS, "orient3d_signs(points (k, 4, 3)) -> int8 signs (bytes)"},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_intersect", NULL, -1, methods};
+
+PyMODINIT_FUNC PyInit__intersect(void)
+{
+    return PyModule_Create(&module);
+}

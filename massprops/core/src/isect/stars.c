@@ -1,0 +1,604 @@
+/* Certificates that faces meet only along what they share: a vertex's star, or a whole shell.
+ *
+ * A vertex v is *manifold* here when its faces, each rotated to (v, x, y) in
+ * its own orientation, chain into one cycle: every x is some face's y,
+ * exactly once.  Then face i of the cycle is (v, a_i, a_{i+1}) (indices mod
+ * k, k >= 3), the link a_0 .. a_{k-1} has no repeated vertex, and the faces
+ * sharing the edge v a_i are exactly faces i - 1 and i, wound oppositely.
+ *
+ * STAR CERTIFICATE.  Let d be a vector, y a linear function with y(d) = 0,
+ * and suppose
+ *   (1) det[d, a_i - v, a_{i+1} - v] has one strict sign for every i, and
+ *   (2) exactly one i has y(a_i - v) <= 0 < y(a_{i+1} - v).
+ * Then any two faces of the star meet only along what they share.
+ * Proof.  Project along d onto the plane d-perp (P(w) = w - (w.d/d.d) d).
+ * det[d, x, z] = d . (P(x) x P(z)), so by (1) every P(a_i - v) is non-zero
+ * and the angle from P(a_i - v) to P(a_{i+1} - v) about 0, measured in the
+ * orientation d gives d-perp, lies strictly in (0, pi) with one sign for all
+ * i: the projected link turns monotonically about 0, and its turns add up to
+ * 2 pi w, w its winding number about 0.  y restricted to d-perp is a linear
+ * coordinate there (y(d) = 0, so y(w) = y(P(w))); if it vanished there, (2)
+ * could not hold.  Count crossings of the line y = 0 with the half-open rule
+ * of (2): because 0 lies strictly on the same side of every projected link
+ * edge, each upward crossing lies on the same half of that line (Sunday's
+ * winding-number rule counts exactly these), so |w| = number of upward
+ * crossings = 1.  The closed wedges W_i = {v + s(a_i - v) + t(a_{i+1} - v) :
+ * s, t >= 0} then project onto sectors of angle in (0, pi) that tile the
+ * plane once, adjacent ones sharing only the ray of P(a_{i+1} - v).  P is
+ * injective on each W_i (its two generators have independent projections).
+ * So if x lies in faces i and j (face i is in W_i): for non-adjacent i, j,
+ * P(x - v) lies in two sectors that share only 0, so x = v; for j = i + 1,
+ * P(x - v) is on the shared ray, and the only points of W_i over that ray are
+ * those of the ray v + s(a_{i+1} - v), so x is on the shared edge (face i
+ * meets that ray only there).  (k = 3: sectors i and i + 1 cannot also meet
+ * at their far ends, whose angles add up to less than 2 pi.)  []
+ * The sign of d's coordinate system never matters: (2) counts upward
+ * crossings, which for any closed polygon equal the downward ones.
+ * Two choices of d are tried, both exact:
+ *   - an axis e_k (the largest component of the star's normal): (1) is
+ *     orient2d in the projection dropping k, and y is another coordinate, so
+ *     (2) compares coordinates;
+ *   - d = q - v for a point q = v + (sum of the faces' unit normals) rounded:
+ *     (1) is orient3d(q, a_i, a_{i+1}, v), and y(w) = orient2d of (v + w, q, v)
+ *     in the projection dropping the axis of q - v's smallest component.
+ * A planar star (every a_i in one plane with v) is the case of any d off
+ * that plane; a saddle is fine too, as long as it is a graph over some plane.
+ *
+ * SHELL CERTIFICATE.  For a shell S (its faces, by label) and a point c:
+ *   (a) every face (a, b, e) of S has orient3d(a, b, e, c) of one strict sign;
+ *   (b) every vertex of S is manifold, its faces all in S, and satisfies (2)
+ *       with d = v - c (y(w) = orient2d(v + w, c, v) dropping the axis of
+ *       c - v's smallest component);
+ *   (c) V - F/2 = 2, V the vertices of S and F its faces.
+ * Then S is embedded: no two of its faces meet other than along what they share.
+ * Proof.  For a face i = (v, a_i, a_{i+1}) of v's star, det[v - c, a_i - v,
+ * a_{i+1} - v] = det[v - c, a_i - c, a_{i+1} - c] = orient3d(v, a_i, a_{i+1},
+ * c), the face's sign in (a): so (1) holds at every vertex with d = v - c,
+ * and with (b) every star is embedded as above.  By (b) the faces of S glued
+ * along shared vertex numbers form a closed oriented surface |S| (every edge
+ * in exactly two faces, wound oppositely; every vertex a disk).  Let r(x) =
+ * (x - c) / |x - c| (c is on no face's plane by (a)).  r is injective on each
+ * face (a triangle off c), maps the two faces at an edge pq to opposite sides
+ * of the plane through c, p, q (orient3d(p, q, e, c) and orient3d(q, p, f, c)
+ * have one sign, so e and f lie on opposite sides), and near a vertex v maps
+ * the faces to sectors at r(v) whose angles are the azimuths about the line
+ * c v, which by the star certificate tile once.  So r is a local
+ * homeomorphism from the compact surface |S| to the sphere: a covering map,
+ * and each connected component of |S|, covering the simply connected sphere,
+ * is mapped homeomorphically onto it, so it is a sphere (Euler characteristic
+ * 2).  With E = 3F/2 edges, V - E + F = V - F/2 = 2 * (number of components),
+ * so (c) says |S| is connected and r is injective on all of it: two faces
+ * with a common point x have r(x) in common, hence x is a common point of
+ * |S|, which lies in the part they share.  []
+ * c is the shell's volume centroid (its vertex mean when the volume is tiny),
+ * rounded: any point works where it works; star-shaped shells (convex parts,
+ * convex decompositions, spheres, bumped spheres) pass, and then no pair of
+ * the shell is tested at all.
+ *
+ * A certificate that fails proves nothing and costs nothing but its time:
+ * the pairs it would have covered are tested exactly.
+ */
+#include "isect.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Faces per block of the parallel face passes, vertices per block of the vertex passes. */
+#define FACE_BLOCK 8192
+#define VERTEX_BLOCK 4096
+/* Up to this degree a vertex's cycle is matched pairwise; above, through a sorted copy. */
+#define SMALL_DEGREE 16
+
+enum { SIGN_NONE = 0, SIGN_MIXED = 2 };
+
+/* ---- incidences -------------------------------------------------------------------------- */
+
+static int build_incidences(Stars *s)
+{
+    int64_t n = s->n, m = s->m;
+    s->begin = calloc(n + 2, sizeof(int64_t));
+    s->ring = malloc(sizeof(uint32_t) * 3 * (m ? m : 1));
+    s->flag = calloc(n ? n : 1, 1);
+    if (!s->begin || !s->ring || !s->flag)
+        return -1;
+    const int64_t *F = s->F;
+    int64_t *count = s->begin + 1;
+    for (int64_t i = 0; i < 3 * m; i++)
+        count[F[i]]++;
+    for (int64_t v = 0, total = 0; v <= n; v++) {
+        int64_t c = s->begin[v];
+        s->begin[v] = total;
+        total += c;
+    }
+    /* begin[v + 1] runs from v's start to its end as v's incidences are filed */
+    for (int64_t t = 0; t < m; t++)
+        for (int c = 0; c < 3; c++)
+            s->ring[s->begin[F[3 * t + c] + 1]++] = (uint32_t)(t << 2 | c);
+    return 0;
+}
+
+/* ---- per-worker scratch -------------------------------------------------------------------- */
+
+typedef struct {
+    int64_t x;
+    int64_t index;
+} Keyed;
+
+typedef struct {
+    int64_t *x, *y, *link;
+    int64_t *next;
+    uint8_t *seen, *above;
+    uint32_t *ordered;
+    Keyed *sorted;
+} Scratch;
+
+static void scratch_free(Scratch *sc)
+{
+    free(sc->x), free(sc->y), free(sc->link), free(sc->next), free(sc->seen), free(sc->above), free(sc->ordered),
+        free(sc->sorted);
+}
+
+static int scratch_init(Scratch *sc, int64_t degree)
+{
+    size_t k = (size_t)(degree > 3 ? degree : 3);
+    memset(sc, 0, sizeof(*sc));
+    sc->x = malloc(sizeof(int64_t) * k);
+    sc->y = malloc(sizeof(int64_t) * k);
+    sc->link = malloc(sizeof(int64_t) * k);
+    sc->next = malloc(sizeof(int64_t) * k);
+    sc->seen = malloc(k);
+    sc->above = malloc(k);
+    sc->ordered = malloc(sizeof(uint32_t) * k);
+    sc->sorted = degree > SMALL_DEGREE ? malloc(sizeof(Keyed) * k) : NULL;
+    if (!sc->x || !sc->y || !sc->link || !sc->next || !sc->seen || !sc->above || !sc->ordered
+        || (degree > SMALL_DEGREE && !sc->sorted)) {
+        scratch_free(sc);
+        return -1;
+    }
+    return 0;
+}
+
+static int compare_keyed(const void *a, const void *b)
+{
+    int64_t x = ((const Keyed *)a)->x, y = ((const Keyed *)b)->x;
+    return (x > y) - (x < y);
+}
+
+/* ---- cycles -------------------------------------------------------------------------------- */
+
+/* Put v's incidences in cyclic order and its link in sc->link; 1 when v is manifold (above). */
+static int order_cycle(Stars *s, int64_t v, Scratch *sc)
+{
+    int64_t b = s->begin[v], k = s->begin[v + 1] - b;
+    if (k < 3)
+        return 0;
+    const int64_t *F = s->F;
+    for (int64_t i = 0; i < k; i++) {
+        uint32_t r = s->ring[b + i];
+        int64_t f = r >> 2;
+        int c = r & 3;
+        sc->x[i] = F[3 * f + (c == 2 ? 0 : c + 1)];
+        sc->y[i] = F[3 * f + (c == 0 ? 2 : c - 1)];
+    }
+    if (k <= SMALL_DEGREE) {
+        for (int64_t i = 0; i < k; i++) {
+            int64_t match = -1;
+            for (int64_t j = 0; j < k; j++)
+                if (sc->x[j] == sc->y[i]) {
+                    if (match >= 0)
+                        return 0;
+                    match = j;
+                }
+            if (match < 0)
+                return 0;
+            sc->next[i] = match;
+        }
+    } else {
+        for (int64_t i = 0; i < k; i++) {
+            sc->sorted[i].x = sc->x[i];
+            sc->sorted[i].index = i;
+        }
+        qsort(sc->sorted, k, sizeof(Keyed), compare_keyed);
+        for (int64_t i = 1; i < k; i++)
+            if (sc->sorted[i].x == sc->sorted[i - 1].x)
+                return 0;
+        for (int64_t i = 0; i < k; i++) {
+            int64_t lo = 0, hi = k;
+            while (lo < hi) {
+                int64_t mid = lo + (hi - lo) / 2;
+                if (sc->sorted[mid].x < sc->y[i])
+                    lo = mid + 1;
+                else
+                    hi = mid;
+            }
+            if (lo == k || sc->sorted[lo].x != sc->y[i])
+                return 0;
+            sc->next[i] = sc->sorted[lo].index;
+        }
+    }
+    /* k steps through distinct faces back to the first: one cycle through all of them */
+    memset(sc->seen, 0, k);
+    int64_t i = 0;
+    for (int64_t step = 0; step < k; step++) {
+        if (sc->seen[i])
+            return 0;
+        sc->seen[i] = 1;
+        sc->ordered[step] = s->ring[b + i];
+        sc->link[step] = sc->x[i];
+        i = sc->next[i];
+    }
+    if (i != 0)
+        return 0;
+    memcpy(s->ring + b, sc->ordered, sizeof(uint32_t) * k);
+    return 1;
+}
+
+/* Condition (2): exactly one i with above[i] == 0 and above[i + 1] == 1. */
+static int one_upward_crossing(const uint8_t *above, int64_t k)
+{
+    int64_t count = 0;
+    for (int64_t i = 0; i < k; i++)
+        count += !above[i] && above[i + 1 == k ? 0 : i + 1];
+    return count == 1;
+}
+
+/* ---- the star certificate ------------------------------------------------------------------ */
+
+/* d = e_axis: (1) by orient2d dropping the axis, y = the coordinate after it. */
+static int star_along_axis(const double *V, P v, const int64_t *link, int64_t k, int axis, uint8_t *above)
+{
+    int w = axis == 0 ? 1 : 0, sign = 0;
+    for (int64_t i = 0; i < k; i++) {
+        P a = V + 3 * link[i], b = V + 3 * link[i + 1 == k ? 0 : i + 1];
+        int s = porient(axis, v, a, b);
+        if (s == 0 || (sign != 0 && s != sign))
+            return 0;
+        sign = s;
+        above[i] = a[w] > v[w];
+    }
+    return one_upward_crossing(above, k);
+}
+
+/* d = q - v: (1) by orient3d(q, a_i, a_{i+1}, v), y(w) = orient2d(v + w, q, v) dropping `drop`. */
+static int star_along_direction(const double *V, P v, const int64_t *link, int64_t k, P q, uint8_t *above)
+{
+    double d[3] = {fabs(q[0] - v[0]), fabs(q[1] - v[1]), fabs(q[2] - v[2])};
+    int drop = d[0] <= d[1] ? (d[0] <= d[2] ? 0 : 2) : (d[1] <= d[2] ? 1 : 2);
+    int sign = 0;
+    for (int64_t i = 0; i < k; i++) {
+        P a = V + 3 * link[i], b = V + 3 * link[i + 1 == k ? 0 : i + 1];
+        int s = orient3d(q, a, b, v);
+        if (s == 0 || (sign != 0 && s != sign))
+            return 0;
+        sign = s;
+        above[i] = porient(drop, a, q, v) > 0;
+    }
+    return one_upward_crossing(above, k);
+}
+
+/* The star certificate for v (manifold, link in sc->link), first along an axis, then along
+ * the sum of its faces' unit normals. */
+static int star_embedded(const double *V, P v, const int64_t *link, int64_t k, uint8_t *above)
+{
+    double area[3] = {0.0, 0.0, 0.0}, unit[3] = {0.0, 0.0, 0.0}, reach = 0.0;
+    for (int64_t i = 0; i < k; i++) {
+        P a = V + 3 * link[i], b = V + 3 * link[i + 1 == k ? 0 : i + 1];
+        double u[3] = {a[0] - v[0], a[1] - v[1], a[2] - v[2]}, w[3] = {b[0] - v[0], b[1] - v[1], b[2] - v[2]};
+        double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+        double length = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int j = 0; j < 3; j++) {
+            area[j] += n[j];
+            unit[j] += length > 0.0 ? n[j] / length : 0.0;
+            reach = dmax(reach, fabs(u[j]));
+        }
+    }
+    double fa[3] = {fabs(area[0]), fabs(area[1]), fabs(area[2])};
+    int axis = fa[0] >= fa[1] ? (fa[0] >= fa[2] ? 0 : 2) : (fa[1] >= fa[2] ? 1 : 2);
+    if (star_along_axis(V, v, link, k, axis, above))
+        return 1;
+    double largest = dmax(fabs(unit[0]), dmax(fabs(unit[1]), fabs(unit[2])));
+    if (!(largest > 0.0) || !(reach > 0.0))
+        return 0;
+    double q[3];
+    for (int j = 0; j < 3; j++)
+        q[j] = v[j] + unit[j] * (reach / largest);
+    return star_along_direction(V, v, link, k, q, above);
+}
+
+/* ---- shells -------------------------------------------------------------------------------- */
+
+typedef struct {
+    Stars *s;
+    const int64_t *shell;
+    const uint8_t *wanted;
+    int64_t n_shells;
+    int64_t *origin;          /* per shell: a vertex of it, the centre's sums are taken about */
+    double *sums;             /* per worker, per shell: volume, volume-weighted and plain corner sums */
+    double *centre;           /* per shell */
+    int8_t *sign;             /* per shell: SIGN_NONE, 1, -1, SIGN_MIXED */
+    uint8_t *failed;          /* per shell: a vertex fails (b) */
+    int64_t *faces, *vertices;
+    Scratch *scratch;         /* per worker */
+    int certify_failed;       /* the second vertex pass: local certificates for shells that failed (b) */
+    int64_t certified;        /* vertices certified by their stars */
+} ShellWork;
+
+#define SUMS 7
+
+static inline void add_count(int64_t *counts, int64_t shell, int64_t count)
+{
+    if (shell >= 0 && count)
+        __atomic_fetch_add(&counts[shell], count, __ATOMIC_RELAXED);
+}
+
+/* Sums for each shell's centre, and its face count. */
+static void centre_block(void *ctx, int worker, int64_t block)
+{
+    ShellWork *w = ctx;
+    const double *V = w->s->V;
+    const int64_t *F = w->s->F;
+    double *sums = w->sums + (size_t)worker * w->n_shells * SUMS;
+    int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
+    int64_t current = -1, count = 0;
+    for (int64_t t = block * FACE_BLOCK; t < end; t++) {
+        int64_t s = w->shell[t];
+        if (!w->wanted[s])
+            continue;
+        if (s != current) {
+            add_count(w->faces, current, count);
+            current = s;
+            count = 0;
+        }
+        count++;
+        P o = V + 3 * w->origin[s];
+        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
+        double x[3], y[3], z[3];
+        for (int k = 0; k < 3; k++) {
+            x[k] = a[k] - o[k];
+            y[k] = b[k] - o[k];
+            z[k] = c[k] - o[k];
+        }
+        double det = x[0] * (y[1] * z[2] - y[2] * z[1]) + x[1] * (y[2] * z[0] - y[0] * z[2])
+                     + x[2] * (y[0] * z[1] - y[1] * z[0]);
+        double *row = sums + s * SUMS;
+        row[0] += det;
+        for (int k = 0; k < 3; k++) {
+            double corner = x[k] + y[k] + z[k];
+            row[1 + k] += det * corner;
+            row[4 + k] += corner;
+        }
+    }
+    add_count(w->faces, current, count);
+}
+
+static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
+{
+    if (shell < 0 || seen == SIGN_NONE)
+        return;
+    int8_t old = __atomic_load_n(&sign[shell], __ATOMIC_RELAXED);
+    for (;;) {
+        int8_t now = old == SIGN_NONE ? seen : (old == seen ? old : SIGN_MIXED);
+        if (now == old || __atomic_compare_exchange_n(&sign[shell], &old, now, 0, __ATOMIC_RELAXED,
+                                                      __ATOMIC_RELAXED))
+            return;
+    }
+}
+
+/* Condition (a): one strict sign of orient3d(face, centre) per shell. */
+static void sign_block(void *ctx, int worker, int64_t block)
+{
+    ShellWork *w = ctx;
+    const double *V = w->s->V;
+    const int64_t *F = w->s->F;
+    int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
+    int64_t current = -1;
+    int8_t seen = SIGN_NONE;
+    for (int64_t t = block * FACE_BLOCK; t < end; t++) {
+        int64_t s = w->shell[t];
+        if (!w->wanted[s])
+            continue;
+        if (s != current) {
+            merge_sign(w->sign, current, seen);
+            current = s;
+            seen = __atomic_load_n(&w->sign[s], __ATOMIC_RELAXED) == SIGN_MIXED ? SIGN_MIXED : SIGN_NONE;
+        }
+        if (seen == SIGN_MIXED)
+            continue;
+        int o = orient3d(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2], w->centre + 3 * s);
+        if (o == 0 || (seen != SIGN_NONE && o != seen))
+            seen = SIGN_MIXED;
+        else
+            seen = (int8_t)o;
+    }
+    merge_sign(w->sign, current, seen);
+}
+
+/* The shell of v's star, or -1 when its faces lie in several shells. */
+static int64_t star_shell(const Stars *s, const int64_t *shell, int64_t v)
+{
+    int64_t b = s->begin[v], e = s->begin[v + 1];
+    int64_t first = shell[s->ring[b] >> 2];
+    for (int64_t i = b + 1; i < e; i++)
+        if (shell[s->ring[i] >> 2] != first)
+            return -1;
+    return first;
+}
+
+static void fail_shells(ShellWork *w, int64_t v)
+{
+    for (int64_t i = w->s->begin[v]; i < w->s->begin[v + 1]; i++)
+        __atomic_store_n(&w->failed[w->shell[w->s->ring[i] >> 2]], 1, __ATOMIC_RELAXED);
+}
+
+/* Condition (b) for the vertices of star-shaped shells; the star certificate for the others. */
+static void vertex_block(void *ctx, int worker, int64_t block)
+{
+    ShellWork *w = ctx;
+    Stars *s = w->s;
+    Scratch *sc = &w->scratch[worker];
+    int64_t end = (block + 1) * VERTEX_BLOCK < s->n ? (block + 1) * VERTEX_BLOCK : s->n;
+    int64_t current = -1, count = 0, certified = 0;
+    for (int64_t v = block * VERTEX_BLOCK; v < end; v++) {
+        if (s->begin[v + 1] == s->begin[v])
+            continue;
+        int64_t k = s->begin[v + 1] - s->begin[v];
+        P pv = s->V + 3 * v;
+        if (w->certify_failed) {
+            /* second pass: stars of shells that failed (b) or (c) after passing (a) */
+            if (!(s->flag[v] & STAR_CYCLE))
+                continue;
+            int64_t sh = star_shell(s, w->shell, v);
+            if (sh < 0 || !w->wanted[sh] || s->shell_embedded[sh] || w->sign[sh] == SIGN_MIXED)
+                continue;
+            for (int64_t i = 0; i < k; i++) {
+                uint32_t r = s->ring[s->begin[v] + i];
+                int c = r & 3;
+                sc->link[i] = s->F[3 * (r >> 2) + (c == 2 ? 0 : c + 1)];
+            }
+            if (star_embedded(s->V, pv, sc->link, k, sc->above)) {
+                s->flag[v] |= STAR_EMBEDDED;
+                certified++;
+            }
+            continue;
+        }
+        int64_t sh = star_shell(s, w->shell, v);
+        if (sh >= 0 && !w->wanted[sh])
+            continue;
+        int manifold = order_cycle(s, v, sc);
+        if (manifold)
+            s->flag[v] |= STAR_CYCLE;
+        if (sh < 0 || !manifold) {
+            fail_shells(w, v);
+            continue;
+        }
+        if (sh != current) {
+            add_count(w->vertices, current, count);
+            current = sh;
+            count = 0;
+        }
+        count++;
+        int8_t sign = w->sign[sh];
+        if (sign == 1 || sign == -1) {
+            if (__atomic_load_n(&w->failed[sh], __ATOMIC_RELAXED))
+                continue;
+            P c = w->centre + 3 * sh;
+            double d[3] = {fabs(c[0] - pv[0]), fabs(c[1] - pv[1]), fabs(c[2] - pv[2])};
+            int drop = d[0] <= d[1] ? (d[0] <= d[2] ? 0 : 2) : (d[1] <= d[2] ? 1 : 2);
+            for (int64_t i = 0; i < k; i++)
+                sc->above[i] = porient(drop, s->V + 3 * sc->link[i], c, pv) > 0;
+            if (!one_upward_crossing(sc->above, k))
+                __atomic_store_n(&w->failed[sh], 1, __ATOMIC_RELAXED);
+        } else if (star_embedded(s->V, pv, sc->link, k, sc->above)) {
+            s->flag[v] |= STAR_EMBEDDED;
+            certified++;
+        }
+    }
+    add_count(w->vertices, current, count);
+    __atomic_fetch_add(&w->certified, certified, __ATOMIC_RELAXED);
+}
+
+static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8_t *wanted, int threads)
+{
+    ShellWork w;
+    memset(&w, 0, sizeof(w));
+    w.s = s;
+    w.shell = shell;
+    w.wanted = wanted;
+    w.n_shells = n_shells;
+    int workers = threads < 1 ? 1 : threads;
+    int64_t max_degree = 3;
+    for (int64_t v = 0; v < s->n; v++)
+        max_degree = star_degree(s, v) > max_degree ? star_degree(s, v) : max_degree;
+    w.origin = malloc(sizeof(int64_t) * n_shells);
+    w.sums = calloc((size_t)workers * n_shells * SUMS, sizeof(double));
+    w.centre = malloc(sizeof(double) * 3 * n_shells);
+    w.sign = calloc(n_shells, 1);
+    w.failed = calloc(n_shells, 1);
+    w.faces = calloc(n_shells, sizeof(int64_t));
+    w.vertices = calloc(n_shells, sizeof(int64_t));
+    w.scratch = calloc(workers, sizeof(Scratch));
+    int status = -1;
+    if (!w.origin || !w.sums || !w.centre || !w.sign || !w.failed || !w.faces || !w.vertices || !w.scratch)
+        goto done;
+    int ready = 0;
+    while (ready < workers && scratch_init(&w.scratch[ready], max_degree) == 0)
+        ready++;
+    if (ready == 0)
+        goto done;
+    workers = ready;                   /* fewer workers: the same certificates */
+    for (int64_t sh = 0; sh < n_shells; sh++)
+        w.origin[sh] = -1;
+    for (int64_t t = 0; t < s->m; t++)
+        if (w.origin[shell[t]] < 0)
+            w.origin[shell[t]] = s->F[3 * t];
+    int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
+    parallel_workers(workers, face_blocks, centre_block, &w);
+    for (int64_t sh = 0; sh < n_shells; sh++) {
+        double row[SUMS] = {0};
+        for (int k = 0; k < workers; k++)
+            for (int j = 0; j < SUMS; j++)
+                row[j] += w.sums[((size_t)k * n_shells + sh) * SUMS + j];
+        P o = w.origin[sh] >= 0 ? s->V + 3 * w.origin[sh] : NULL;
+        if (!o || !wanted[sh]) {
+            w.sign[sh] = SIGN_MIXED;
+            continue;
+        }
+        /* the volume centroid (a tetrahedron's is its corners' mean); the corners' mean when the
+         * volume vanishes */
+        for (int j = 0; j < 3; j++) {
+            double centroid = o[j] + row[1 + j] / (4.0 * row[0]);
+            w.centre[3 * sh + j] = isfinite(centroid) ? centroid : o[j] + row[4 + j] / (3.0 * (double)w.faces[sh]);
+        }
+        for (int j = 0; j < 3; j++)
+            if (!isfinite(w.centre[3 * sh + j]))
+                w.sign[sh] = SIGN_MIXED;
+    }
+    parallel_workers(workers, face_blocks, sign_block, &w);
+    parallel_workers(workers, vertex_blocks, vertex_block, &w);
+    int again = 0;
+    for (int64_t sh = 0; sh < n_shells; sh++) {
+        int uniform = w.sign[sh] == 1 || w.sign[sh] == -1;
+        s->shell_embedded[sh] = wanted[sh] && uniform && !w.failed[sh] && 2 * w.vertices[sh] - w.faces[sh] == 4;
+        s->certified_shells += s->shell_embedded[sh];
+        again |= wanted[sh] && uniform && !s->shell_embedded[sh];
+    }
+    if (again) {
+        w.certify_failed = 1;
+        parallel_workers(workers, vertex_blocks, vertex_block, &w);
+    }
+    s->certified_vertices = w.certified;
+    status = 0;
+done:
+    for (int k = 0; w.scratch && k < workers; k++)
+        scratch_free(&w.scratch[k]);
+    free(w.origin), free(w.sums), free(w.centre), free(w.sign), free(w.failed), free(w.faces), free(w.vertices),
+        free(w.scratch);
+    return status;
+}
+
+int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
+                int64_t n_shells, const uint8_t *wanted, int threads)
+{
+    memset(s, 0, sizeof(*s));
+    s->V = V;
+    s->F = F;
+    s->n = n;
+    s->m = m;
+    s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
+    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s) < 0
+        || certify(s, shell, n_shells, wanted, threads) < 0) {
+        stars_free(s);
+        return -1;
+    }
+    return 0;
+}
+
+void stars_free(Stars *s)
+{
+    free(s->begin);
+    free(s->ring);
+    free(s->flag);
+    free(s->shell_embedded);
+    memset(s, 0, sizeof(*s));
+}
