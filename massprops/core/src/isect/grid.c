@@ -243,9 +243,12 @@ typedef struct {
     double (*box)[6];         /* per block of input faces: low corner, high corner */
     int64_t *count;           /* per block: faces taken, then entries */
     int64_t *hubs;            /* per block of input faces: faces taken with a hub */
+    double *lo, *hi;          /* per input face taken: its box (3 each) */
+    uint8_t *certified;       /* per input face taken: its certified corners */
 } Build;
 
-/* Input faces of one block: each taken face's projection axis (-1: not taken or zero area). */
+/* Input faces of one block: each taken face's projection axis (-1: not taken or zero area), box
+ * and certified corners. */
 static void axis_block(void *ctx, int64_t block)
 {
     Build *w = ctx;
@@ -261,10 +264,17 @@ static void axis_block(void *ctx, int64_t block)
         w->axis[t] = (int8_t)triangle_axis(a, b, c);
         if (w->axis[t] < 0)
             continue;
+        uint8_t certified = 0;
         for (int k = 0; k < 3; k++) {
-            box[k] = dmin(box[k], dmin(a[k], dmin(b[k], c[k])));
-            box[3 + k] = dmax(box[3 + k], dmax(a[k], dmax(b[k], c[k])));
+            double lo = dmin(a[k], dmin(b[k], c[k])), hi = dmax(a[k], dmax(b[k], c[k]));
+            w->lo[3 * t + k] = lo;
+            w->hi[3 * t + k] = hi;
+            box[k] = dmin(box[k], lo);
+            box[3 + k] = dmax(box[3 + k], hi);
+            if (w->stars && (w->stars->flag[w->F[3 * t + k]] & STAR_EMBEDDED))
+                certified |= (uint8_t)(1 << k);
         }
+        w->certified[t] = certified;
         n++;
         hubs += w->stars && hub_of(w->stars, w->F, t) >= 0;
     }
@@ -272,36 +282,30 @@ static void axis_block(void *ctx, int64_t block)
     w->hubs[block] = hubs;
 }
 
-/* Sorted faces of one block: their corners (when copied), boxes and certified corners. */
+/* Sorted faces of one block, when they are not the input's in order: their original index,
+ * shell, axis, corners, box and certified corners. */
 static void fill_block(void *ctx, int64_t block)
 {
     Build *w = ctx;
     Grid *g = w->g;
     int64_t s0 = block * BUILD_BLOCK, s1 = s0 + BUILD_BLOCK < g->n ? s0 + BUILD_BLOCK : g->n;
     for (int64_t s = s0; s < s1; s++) {
-        int64_t t = w->order ? w->order[s] : s;
-        if (g->id) {
-            g->id[s] = (uint32_t)t;
-            g->own_shell[s] = w->shell[t];
-            g->own_axis[s] = w->axis[t];
-            for (int k = 0; k < 3; k++)
-                g->own_corner[3 * s + k] = w->F[3 * t + k];
-        }
-        uint8_t certified = 0;
-        for (int k = 0; k < 3; k++)
-            if (w->stars && (w->stars->flag[w->F[3 * t + k]] & STAR_EMBEDDED))
-                certified |= (uint8_t)(1 << k);
-        g->certified[s] = certified;
-        P a = g->V + 3 * w->F[3 * t], b = g->V + 3 * w->F[3 * t + 1], c = g->V + 3 * w->F[3 * t + 2];
+        int64_t t = w->order[s];
+        g->id[s] = (uint32_t)t;
+        g->own_shell[s] = w->shell[t];
+        g->own_axis[s] = w->axis[t];
+        g->certified[s] = w->certified[t];
         for (int k = 0; k < 3; k++) {
-            g->lo[3 * s + k] = dmin(a[k], dmin(b[k], c[k]));
-            g->hi[3 * s + k] = dmax(a[k], dmax(b[k], c[k]));
+            g->own_corner[3 * s + k] = w->F[3 * t + k];
+            g->lo[3 * s + k] = w->lo[3 * t + k];
+            g->hi[3 * s + k] = w->hi[3 * t + k];
         }
     }
 }
 
 /* Without an order (every face taken, none with a hub: the sorted order is the input's), the
- * grid keeps pointers to the input's corners and shells instead of copies. */
+ * grid keeps pointers to the input's corners and shells, and the boxes found with the axes,
+ * instead of copies. */
 static int fill_faces(Grid *g, Build *w, int threads)
 {
     int64_t n = g->n;
@@ -312,23 +316,28 @@ static int fill_faces(Grid *g, Build *w, int threads)
         g->corner = w->F;
         g->shell = w->shell;
         g->axis = g->own_axis = w->axis;
+        g->lo = w->lo;
+        g->hi = w->hi;
+        g->certified = w->certified;
         w->axis = NULL;
+        w->lo = w->hi = NULL;
+        w->certified = NULL;
     } else {
         g->id = malloc(sizeof(uint32_t) * n);
         g->corner = g->own_corner = malloc(sizeof(int64_t) * 3 * n);
         g->shell = g->own_shell = malloc(sizeof(int64_t) * n);
         g->axis = g->own_axis = malloc(n);
-        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis)
+        g->lo = malloc(sizeof(double) * 3 * n);
+        g->hi = malloc(sizeof(double) * 3 * n);
+        g->certified = malloc(n);
+        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || !g->lo || !g->hi || !g->certified)
             return -1;
+        parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);
     }
-    g->lo = malloc(sizeof(double) * 3 * n);
-    g->hi = malloc(sizeof(double) * 3 * n);
     g->low_cell = malloc(sizeof(int32_t) * 3 * n);
     g->level = malloc(n);
-    g->certified = malloc(n);
-    if (!g->lo || !g->hi || !g->low_cell || !g->level || !g->certified)
+    if (!g->low_cell || !g->level)
         return -1;
-    parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);
     if (!grouped)
         return 0;
     g->group_begin = malloc(sizeof(uint32_t) * n);
@@ -406,9 +415,10 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
     g->V = V;
     int64_t n_blocks = (m + BUILD_BLOCK - 1) / BUILD_BLOCK;
     Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0, malloc(sizeof(double[6]) * (n_blocks + 1)),
-               malloc(sizeof(int64_t) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1))};
+               malloc(sizeof(int64_t) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
+               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1)};
     int status = -1;
-    if (!w.axis || !w.box || !w.count || !w.hubs)
+    if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)
         goto done;
     parallel_blocks(threads, n_blocks, axis_block, &w);
     double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -491,6 +501,6 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
     }
     status = 0;
 done:
-    free(w.axis), free(w.box), free(w.count), free(w.hubs);
+    free(w.axis), free(w.box), free(w.count), free(w.hubs), free(w.lo), free(w.hi), free(w.certified);
     return status;
 }
