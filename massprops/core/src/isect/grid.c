@@ -123,7 +123,8 @@ int64_t grid_find(const Grid *g, int level, uint64_t key)
 void grid_free(Grid *g)
 {
     free(g->id), free(g->own_corner), free(g->own_shell), free(g->lo), free(g->hi), free(g->low_cell),
-        free(g->own_axis), free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key), free(g->face);
+        free(g->own_axis), free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key),
+        free(g->face);
     memset(g, 0, sizeof(*g));
 }
 
@@ -394,10 +395,7 @@ static void key_block(void *ctx, int64_t block)
     for (int64_t t = s0; t < s1; t++) {
         int level = g->level[t];
         int64_t c0[3], c1[3];
-        for (int k = 0; k < 3; k++) {
-            c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
-            c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
-        }
+        grid_face_cells(g, t, level, c0, c1);
         for (int64_t a = c0[0]; a <= c1[0]; a++)
             for (int64_t b = c0[1]; b <= c1[1]; b++)
                 for (int64_t c = c0[2]; c <= c1[2]; c++) {
@@ -414,8 +412,9 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
     memset(g, 0, sizeof(*g));
     g->V = V;
     int64_t n_blocks = (m + BUILD_BLOCK - 1) / BUILD_BLOCK;
-    Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0, malloc(sizeof(double[6]) * (n_blocks + 1)),
-               malloc(sizeof(int64_t) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
+    Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0,
+               malloc(sizeof(double[6]) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
+               malloc(sizeof(int64_t) * (n_blocks + 1)),
                malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1)};
     int status = -1;
     if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)

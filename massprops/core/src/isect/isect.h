@@ -101,6 +101,15 @@ static inline int64_t grid_cell0(const Grid *g, int axis, double x)
     return (int64_t)((x - g->origin[axis]) * g->inverse);
 }
 
+/* The cells of `level` that face t's box covers: c0[k] .. c1[k] on each axis. */
+static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t *c0, int64_t *c1)
+{
+    for (int k = 0; k < 3; k++) {
+        c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
+        c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
+    }
+}
+
 uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k);
 void grid_key_cell(uint64_t key, int64_t *cell);
 /* First entry with this key (within its level's range), or -1. */

@@ -383,7 +383,8 @@ static inline int items_share_certified(const Item *x, const Item *y)
 {
     uint8_t c = x->certified;
     for (int k = 0; k < 3; k++)
-        if ((c >> k & 1) && (x->corner[k] == y->corner[0] || x->corner[k] == y->corner[1] || x->corner[k] == y->corner[2]))
+        if ((c >> k & 1)
+            && (x->corner[k] == y->corner[0] || x->corner[k] == y->corner[1] || x->corner[k] == y->corner[2]))
             return 1;
     return 0;
 }
@@ -462,7 +463,8 @@ static int sweep_pairs(const Search *s, Block *b, Seen *seen, Scratch *sc, int64
     int64_t k = run - e;
     if (scratch_reserve(sc, k) < 0)
         return -1;
-    double length[3] = {0.0, 0.0, 0.0}, low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double length[3] = {0.0, 0.0, 0.0}, low[3] = {INFINITY, INFINITY, INFINITY};
+    double high[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int64_t i = 0; i < k; i++) {
         uint32_t t = g->face[e + i];
         Item *it = &sc->items[i];
@@ -579,10 +581,7 @@ static void search_levels(const Search *s, Block *b, Seen *seen, int64_t begin, 
             if (coarse <= level)
                 continue;
             int64_t c0[3], c1[3];
-            for (int k = 0; k < 3; k++) {
-                c0[k] = (int64_t)g->low_cell[3 * t + k] >> coarse;
-                c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> coarse;
-            }
+            grid_face_cells(g, t, coarse, c0, c1);
             for (int64_t x = c0[0]; x <= c1[0]; x++)
                 for (int64_t y = c0[1]; y <= c1[1]; y++)
                     for (int64_t z = c0[2]; z <= c1[2]; z++) {
