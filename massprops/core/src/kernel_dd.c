@@ -304,3 +304,24 @@ void shift_is_exact(const double *vertices, int64_t n, const double centre[3], i
                 exact[i] = 0;
         }
 }
+
+int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
+                      double *out, int64_t *moved)
+{
+    int64_t v, count = 0;
+    int i;
+    for (v = 0; v < n; v++) {
+        int tiny = 0;
+        for (i = 0; i < 3; i++) {
+            double y = ldexp(vertices[3 * v + i] - reference[i], -scale_exp);
+            if (y != 0.0 && fabs(y) < smallest) {
+                y = 0.0;
+                tiny = 1;
+            }
+            out[3 * v + i] = y;
+        }
+        if (tiny)
+            moved[count++] = v;
+    }
+    return count;
+}

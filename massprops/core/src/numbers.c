@@ -133,7 +133,7 @@ static double slow_path(const char *start, size_t length)
     return value;
 }
 
-int parse_double(const char *start, const char *end, double *value)
+int parse_decimal(const char *start, const char *end, const char **stop, double *value)
 {
     const char *p = start;
     int negative = 0, digits = 0, significant = 0, exponent_sign = 1;
@@ -141,13 +141,6 @@ int parse_double(const char *start, const char *end, double *value)
     uint64_t mantissa = 0;
     if (p < end && (*p == '+' || *p == '-'))
         negative = *p++ == '-';
-    if (p < end && !is_digit(*p) && *p != '.') {
-        if (special_value(p, (size_t)(end - p), value) != 0)
-            return -1;
-        if (negative)
-            *value = -*value;
-        return 0;
-    }
     for (; p < end && is_digit(*p); p++, digits++) {
         if (significant || *p != '0') {
             if (significant < 19)
@@ -183,8 +176,8 @@ int parse_double(const char *start, const char *end, double *value)
         if (exponent_digits == 0)
             return -1;
     }
-    if (p != end)
-        return -1;
+    *stop = p;
+    end = p;
     exponent = exponent_sign * exponent + dropped;
     /* More than 19 significant digits (some were not accumulated) never take the fast path. */
     if (significant <= 19 && mantissa <= ((uint64_t)1 << 53) && exponent >= -22 && exponent <= 22) {
@@ -203,4 +196,19 @@ int parse_double(const char *start, const char *end, double *value)
 #endif
     *value = slow_path(start, (size_t)(end - start));
     return 0;
+}
+
+int parse_double(const char *start, const char *end, double *value)
+{
+    const char *p = start, *stop;
+    if (p < end && (*p == '+' || *p == '-'))
+        p++;
+    if (p < end && !is_digit(*p) && *p != '.') {
+        if (special_value(p, (size_t)(end - p), value) != 0)
+            return -1;
+        if (*start == '-')
+            *value = -*value;
+        return 0;
+    }
+    return parse_decimal(start, end, &stop, value) == 0 && stop == end ? 0 : -1;
 }
