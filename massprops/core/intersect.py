@@ -137,11 +137,12 @@ class ExactGeometry:
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
             int(max_examples), int(threads))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
-        # Each shell pair once, with the faces found first (the search's order does not depend on threads).
-        found = found[np.lexsort((found[:, 1], found[:, 0]))]
-        first = np.ones(found.shape[0], dtype=bool)
-        first[1:] = np.any(found[1:, :2] != found[:-1, :2], axis=1)
-        found = found[first]
+        if found.shape[0] > 1:
+            # Each shell pair once, with the faces found first (the search's order does not depend on threads).
+            found = found[np.lexsort((found[:, 1], found[:, 0]))]
+            first = np.ones(found.shape[0], dtype=bool)
+            first[1:] = np.any(found[1:, :2] != found[:-1, :2], axis=1)
+            found = found[first]
         return Intersections(np.frombuffer(flags, dtype=np.uint8).astype(bool)[:n_shells],
                              np.frombuffer(examples, dtype=np.int64).reshape(-1, 2).copy(),
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),

@@ -309,11 +309,13 @@ int64_t scale_snapped(const double *vertices, int64_t n, const double reference[
                       double *out, int64_t *moved)
 {
     int64_t v, count = 0;
-    int i;
+    int i, multiply = scale_exp >= -1023 && scale_exp <= 1022;
+    /* 2**-scale_exp when it is a normal double: one multiplication rounds as ldexp does (once, correctly) */
+    double factor = multiply ? ldexp(1.0, -scale_exp) : 1.0;
     for (v = 0; v < n; v++) {
         int tiny = 0;
         for (i = 0; i < 3; i++) {
-            double y = ldexp(vertices[3 * v + i] - reference[i], -scale_exp);
+            double d = vertices[3 * v + i] - reference[i], y = multiply ? d * factor : ldexp(d, -scale_exp);
             if (y != 0.0 && fabs(y) < smallest) {
                 y = 0.0;
                 tiny = 1;
