@@ -83,6 +83,8 @@ class ExactGeometry:
     moved_vertices : ndarray of int, moved : ndarray of float
         Vertices with a coordinate below ``2**-200`` of the part's size, taken
         as zero, and a bound on each one's move (mesh units).
+    frame : massprops.core.frame.Frame
+        The vertices' integration frame (:func:`massprops.core.frame.frame_of`).
     """
 
     def __init__(self, vertices):
@@ -96,6 +98,7 @@ class ExactGeometry:
         self.vertices = np.asarray(scaled)
         self.reference = np.array(frame.reference)
         self.scale_exp = frame.scale_exp
+        self.frame = frame
 
     def zero_area(self, faces):
         """Flags (m,) of the faces whose three corners are collinear or coincide, exactly."""
