@@ -126,6 +126,12 @@ def finite_or_null(obj):
             where.append(key)
             return None
         if type(value) is list:
+            try:
+                # Numbers only, all finite (an inf or NaN makes the sum one): nothing to replace.
+                if math.isfinite(sum(value)):
+                    return list(value)
+            except (TypeError, OverflowError):
+                pass
             return [clean(v, key) for v in value]
         if type(value) is dict:
             return {k: clean(v, f"{key}.{k}" if key else k) for k, v in value.items()}

@@ -21,7 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frame import reference_frame
+from . import _core
+from .arrays import as_points
+from .frame import frame_of
 
 # Faces above which the intersection tests run on several threads (below, a thread costs more than it saves).
 _PARALLEL_ABOVE = 1 << 16
@@ -81,20 +83,22 @@ class ExactGeometry:
     moved_vertices : ndarray of int, moved : ndarray of float
         Vertices with a coordinate below ``2**-200`` of the part's size, taken
         as zero, and a bound on each one's move (mesh units).
+    frame : massprops.core.frame.Frame
+        The vertices' integration frame (:func:`massprops.core.frame.frame_of`).
     """
 
     def __init__(self, vertices):
-        vertices = np.asarray(vertices, dtype=np.float64)
-        reference, scale_exp = reference_frame(vertices) if vertices.size else (np.zeros(3), 0)
-        scaled = np.ldexp(vertices - reference, -scale_exp)           # both steps exact
-        tiny = (scaled != 0) & (np.abs(scaled) < _SMALLEST)
-        self.moved_vertices = np.flatnonzero(tiny.any(axis=1))
+        vertices = as_points(vertices)
+        frame = frame_of(vertices)
+        # (x - reference) * 2**-scale_exp, both steps exact; values below 2**-200 taken as zero.
+        scaled, moved = _core.scale_snapped(vertices, frame.reference, frame.scale_exp, _SMALLEST)
+        self.moved_vertices = np.asarray(moved)
         # Each snapped coordinate moves by less than 2**-200 (scaled): the vertex by less than √3 times that.
-        self.moved = np.full(self.moved_vertices.size, math.ldexp(1.8, scale_exp - 200))
-        scaled[tiny] = 0.0
-        self.vertices = np.ascontiguousarray(scaled)
-        self.reference = reference
-        self.scale_exp = scale_exp
+        self.moved = np.full(self.moved_vertices.size, math.ldexp(1.8, frame.scale_exp - 200))
+        self.vertices = np.asarray(scaled)
+        self.reference = np.array(frame.reference)
+        self.scale_exp = frame.scale_exp
+        self.frame = frame
 
     def zero_area(self, faces):
         """Flags (m,) of the faces whose three corners are collinear or coincide, exactly."""
@@ -136,11 +140,12 @@ class ExactGeometry:
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
             int(max_examples), int(threads))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
-        # Each shell pair once, with the faces found first (the search's order does not depend on threads).
-        found = found[np.lexsort((found[:, 1], found[:, 0]))]
-        first = np.ones(found.shape[0], dtype=bool)
-        first[1:] = np.any(found[1:, :2] != found[:-1, :2], axis=1)
-        found = found[first]
+        if found.shape[0] > 1:
+            # Each shell pair once, with the faces found first (the search's order does not depend on threads).
+            found = found[np.lexsort((found[:, 1], found[:, 0]))]
+            first = np.ones(found.shape[0], dtype=bool)
+            first[1:] = np.any(found[1:, :2] != found[:-1, :2], axis=1)
+            found = found[first]
         return Intersections(np.frombuffer(flags, dtype=np.uint8).astype(bool)[:n_shells],
                              np.frombuffer(examples, dtype=np.int64).reshape(-1, 2).copy(),
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),

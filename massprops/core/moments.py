@@ -30,6 +30,8 @@ __all__ = ["Moments", "integrate"]
 
 # Above this ratio Σ|det| / |Σ det| the fast pass loses more than ~4 bits to cancellation.
 _CANCELLATION_LIMIT = 16.0
+# Faces above which the sums run on several threads: below, starting a thread costs more than it saves.
+_PARALLEL_ABOVE = 1 << 14
 
 
 @dataclass(frozen=True)
@@ -64,7 +66,7 @@ class Moments:
                        self.faces, self.refined_faces, self.exact_faces)
 
 
-def integrate(vertices, faces, *, order=2, weights=None, measure="volume"):
+def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame=None):
     """Integrate the volume moments of a closed, consistently wound surface.
 
     Parameters
@@ -81,6 +83,8 @@ def integrate(vertices, faces, *, order=2, weights=None, measure="volume"):
     measure : {"volume", "area"}
         "area" replaces each face's ``det`` by ``|(b − a) × (c − a)|`` (twice its
         area), so the sums become surface integrals (:mod:`massprops.shell`).
+    frame : Frame, optional
+        :func:`massprops.core.frame.frame_of` of these vertices, if already found.
 
     Returns
     -------
@@ -99,9 +103,10 @@ def integrate(vertices, faces, *, order=2, weights=None, measure="volume"):
         weights = np.ascontiguousarray(weights, dtype=np.float64)
         if weights.shape != (faces.shape[0],):
             raise ValueError(f"weights: expected shape ({faces.shape[0]},), got {weights.shape}")
-    frame = frame_of(vertices)
+    frame = frame_of(vertices) if frame is None else frame
+    threads = thread_count()
     arguments = (vertices, faces, frame.reference, frame.scale_exp, frame.radius, order, measure == "area",
-                 weights, thread_count())
+                 weights, threads if faces.shape[0] > _PARALLEL_ABOVE else 1)
     sums = _core.integrate(*arguments, False)
     area2 = sums["area2"]
     if measure == "volume" and sums["abs_sum"] > _CANCELLATION_LIMIT * abs(sums["det_sum"]):

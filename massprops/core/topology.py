@@ -16,6 +16,9 @@ from . import _core
 from .arrays import as_indices
 from .threads import thread_count
 
+# Faces above which edges are matched on several threads: below, starting a thread costs more than it saves.
+_PARALLEL_ABOVE = 1 << 14
+
 __all__ = ["EdgeSummary", "edge_summary", "shells", "FaceGroups", "face_groups", "group_rows", "distinct_faces"]
 
 
@@ -87,7 +90,9 @@ def edge_summary(faces, n_vertices, *, arrays=False):
     ValueError
         2**31 vertices or more.
     """
-    found = _core.edge_summary(as_indices(faces), int(n_vertices), thread_count(), arrays)
+    faces = as_indices(faces)
+    threads = thread_count()
+    found = _core.edge_summary(faces, int(n_vertices), threads if faces.shape[0] > _PARALLEL_ABOVE else 1, arrays)
     for name in ("first_boundary", "first_unbalanced"):
         found[name] = None if found[name][0] < 0 else found[name]
     for name in ("edge_vertices", "uses", "balance"):

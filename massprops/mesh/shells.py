@@ -68,13 +68,13 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     vertices, faces = mesh.vertices, mesh.faces
     checks = {"self_intersection": "not checked"}
     if n_shells == 1 and (copies is None or copies.size == 0):
-        swept = 0.0
+        swept, frame = 0.0, None
         if check_self:
             geometry = _geometry(vertices)
             _self_checked(geometry, faces, labels, 1, path)
             checks["self_intersection"] = "none"
-            swept = _snapped(geometry, vertices, faces)
-        return Solid(mesh, checks, swept_volume=swept)
+            swept, frame = _snapped(geometry, vertices, faces), geometry.frame
+        return Solid(mesh, checks, swept_volume=swept, frame=frame)
     six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
     zero = _zero_shells(vertices, faces, labels, six, bound)
     live = ~zero
@@ -152,12 +152,13 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     naive = (float(six[live].sum()) + copy_six, float(bound[live].sum()) + (copy_bound if copy_six else 0.0))
     swept += _snapped(geometry, vertices, faces)
     if not resolved and not zero.any() and not flipped and faces is mesh.faces:
-        return Solid(mesh, checks, tuple(warnings), swept)
+        return Solid(mesh, checks, tuple(warnings), swept, frame=geometry.frame)
     checks_resolved = dict(resolved=tuple(resolved), naive_six=naive) if resolved else {}
     all_faces = np.vstack(kept_faces).astype(np.int64)
     out_vertices = np.vstack([vertices, new_vertices]) if new_vertices.size else vertices
     return Solid(mesh.with_faces(all_faces, out_vertices), checks, tuple(warnings), swept,
-                 faces[zero[labels]], flipped, **checks_resolved)
+                 faces[zero[labels]], flipped, **checks_resolved,
+                 frame=geometry.frame if out_vertices is vertices else None)
 
 
 def _decide(units, classes, path):

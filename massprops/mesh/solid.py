@@ -76,6 +76,9 @@ class Solid:
         Six times the volume the shells enclose counted with multiplicity
         (what summing their signed volumes gives), and a bound on its error:
         the overlap is the difference from the solid's (:func:`overlap_warning`).
+    frame : Frame or None
+        The integration frame of ``mesh.vertices`` (:func:`massprops.core.frame.frame_of`) when the
+        checks already found it.
     """
 
     mesh: object
@@ -86,6 +89,7 @@ class Solid:
     flipped: bool = False
     resolved: tuple = ()
     naive_six: tuple = (0.0, 0.0)
+    frame: object = None
 
 
 def without_unused_vertices(mesh):

@@ -95,6 +95,10 @@ void numbers_init(void);
 /* Parse one token [start, end) exactly as Python's float() would accept it (no underscores);
  * returns 0 and the correctly rounded value, or -1 if it is not a number. */
 int parse_double(const char *start, const char *end, double *value);
+/* The decimal number (sign, digits with an optional point, an optional exponent) that starts at
+ * `start`: 0, its value as parse_double gives it, and where it stops in *stop (the caller checks
+ * what follows); -1 when no such number starts there (inf and nan are parse_double's). */
+int parse_decimal(const char *start, const char *end, const char **stop, double *value);
 
 struct MeshArrays {
     double *vertices;         /* n x 3, owned by the caller after success */

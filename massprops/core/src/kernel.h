@@ -49,6 +49,11 @@ int shell_determinants(const KernelInput *in, const int64_t *labels, int64_t she
 void bounding_box(const double *vertices, int64_t n, double low[3], double high[3]);
 /* Whether x - centre[i] is exact for every coordinate x of axis i. */
 void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3]);
+/* out = ldexp(x - reference[i], -scale_exp) per coordinate x of axis i (n x 3), with every non-zero
+ * value below `smallest` in magnitude taken as zero; returns how many vertices had one taken so,
+ * listed in `moved` (ascending). */
+int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
+                      double *out, int64_t *moved);
 
 /* ---- shared by kernel.c and kernel_dd.c --------------------------------------------------- */
 

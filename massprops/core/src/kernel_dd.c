@@ -304,3 +304,26 @@ void shift_is_exact(const double *vertices, int64_t n, const double centre[3], i
                 exact[i] = 0;
         }
 }
+
+int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
+                      double *out, int64_t *moved)
+{
+    int64_t v, count = 0;
+    int i, multiply = scale_exp >= -1023 && scale_exp <= 1022;
+    /* 2**-scale_exp when it is a normal double: one multiplication rounds as ldexp does (once, correctly) */
+    double factor = multiply ? ldexp(1.0, -scale_exp) : 1.0;
+    for (v = 0; v < n; v++) {
+        int tiny = 0;
+        for (i = 0; i < 3; i++) {
+            double d = vertices[3 * v + i] - reference[i], y = multiply ? d * factor : ldexp(d, -scale_exp);
+            if (y != 0.0 && fabs(y) < smallest) {
+                y = 0.0;
+                tiny = 1;
+            }
+            out[3 * v + i] = y;
+        }
+        if (tiny)
+            moved[count++] = v;
+    }
+    return count;
+}

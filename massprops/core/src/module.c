@@ -552,6 +552,41 @@ static PyObject *core_shift_is_exact(PyObject *self, PyObject *args)
                          exact[2] ? Py_True : Py_False);
 }
 
+static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
+{
+    PyObject *object, *scaled, *moved;
+    Py_buffer view;
+    double reference[3], smallest, *out;
+    int64_t n, count, *rows;
+    int scale_exp;
+    if (!PyArg_ParseTuple(args, "O(ddd)id", &object, &reference[0], &reference[1], &reference[2], &scale_exp,
+                          &smallest)
+            || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    n = view.len / 24;
+    out = malloc((size_t)(n > 0 ? n : 1) * 3 * sizeof(double));
+    rows = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    if (!out || !rows) {
+        free(out);
+        free(rows);
+        PyBuffer_Release(&view);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    count = scale_snapped(view.buf, n, reference, scale_exp, smallest, out, rows);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    if (!(scaled = buffer_wrap(out, 'd', 8, (Py_ssize_t)n, 3))) {
+        free(rows);
+        return NULL;
+    }
+    if (!(moved = buffer_wrap(rows, 'q', 8, (Py_ssize_t)count, 0))) {
+        Py_DECREF(scaled);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", scaled, moved);
+}
+
 static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
     {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces, ignored non-finite unused vertices)"},
@@ -568,6 +603,8 @@ static PyMethodDef methods[] = {
      "shell_determinants(vertices, faces, labels, shells, reference, scale_exp) -> (det_sum, det_error)"},
     {"bounding_box", core_bounding_box, METH_VARARGS, "bounding_box(vertices) -> (low, high)"},
     {"shift_is_exact", core_shift_is_exact, METH_VARARGS, "shift_is_exact(vertices, centre) -> 3 bools"},
+    {"scale_snapped", core_scale_snapped, METH_VARARGS,
+     "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_core", "The compiled core of massprops.", -1, methods};

@@ -106,6 +106,28 @@ static int exact_decimal(uint64_t mantissa, int64_t exponent, double *value)
 }
 #endif
 
+/* Eight ASCII digits at p (which has eight bytes to read): 1 and their value, else 0.  Read as
+ * one little-endian word (Lemire's fast_float): the same value the digit loop forms. */
+static inline int eight_digits(const char *p, uint64_t *value)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    uint64_t v;
+    memcpy(&v, p, sizeof v);
+    if (((v & 0xF0F0F0F0F0F0F0F0ULL) | (((v + 0x0606060606060606ULL) & 0xF0F0F0F0F0F0F0F0ULL) >> 4))
+            != 0x3333333333333333ULL)
+        return 0;
+    v -= 0x3030303030303030ULL;
+    v = v * 10 + (v >> 8);
+    *value = ((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))
+              + ((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32;
+    return 1;
+#else
+    (void)p;
+    (void)value;
+    return 0;
+#endif
+}
+
 static int special_value(const char *p, size_t length, double *value)
 {
     if ((length == 3 && strncasecmp(p, "inf", 3) == 0) || (length == 8 && strncasecmp(p, "infinity", 8) == 0)) {
@@ -133,7 +155,7 @@ static double slow_path(const char *start, size_t length)
     return value;
 }
 
-int parse_double(const char *start, const char *end, double *value)
+int parse_decimal(const char *start, const char *end, const char **stop, double *value)
 {
     const char *p = start;
     int negative = 0, digits = 0, significant = 0, exponent_sign = 1;
@@ -141,13 +163,6 @@ int parse_double(const char *start, const char *end, double *value)
     uint64_t mantissa = 0;
     if (p < end && (*p == '+' || *p == '-'))
         negative = *p++ == '-';
-    if (p < end && !is_digit(*p) && *p != '.') {
-        if (special_value(p, (size_t)(end - p), value) != 0)
-            return -1;
-        if (negative)
-            *value = -*value;
-        return 0;
-    }
     for (; p < end && is_digit(*p); p++, digits++) {
         if (significant || *p != '0') {
             if (significant < 19)
@@ -159,6 +174,17 @@ int parse_double(const char *start, const char *end, double *value)
     }
     if (p < end && *p == '.') {
         for (p++; p < end && is_digit(*p); p++, digits++) {
+            uint64_t eight;
+            /* eight digits at once while all eight are accumulated (after the leading zeros, below 19) */
+            while (significant > 0 && significant <= 11 && end - p >= 8 && eight_digits(p, &eight)) {
+                mantissa = mantissa * 100000000ULL + eight;
+                significant += 8;
+                dropped -= 8;
+                digits += 8;
+                p += 8;
+            }
+            if (p >= end || !is_digit(*p))
+                break;
             if (significant || *p != '0') {
                 if (significant < 19) {
                     mantissa = 10 * mantissa + (uint64_t)(*p - '0');
@@ -183,8 +209,8 @@ int parse_double(const char *start, const char *end, double *value)
         if (exponent_digits == 0)
             return -1;
     }
-    if (p != end)
-        return -1;
+    *stop = p;
+    end = p;
     exponent = exponent_sign * exponent + dropped;
     /* More than 19 significant digits (some were not accumulated) never take the fast path. */
     if (significant <= 19 && mantissa <= ((uint64_t)1 << 53) && exponent >= -22 && exponent <= 22) {
@@ -203,4 +229,19 @@ int parse_double(const char *start, const char *end, double *value)
 #endif
     *value = slow_path(start, (size_t)(end - start));
     return 0;
+}
+
+int parse_double(const char *start, const char *end, double *value)
+{
+    const char *p = start, *stop;
+    if (p < end && (*p == '+' || *p == '-'))
+        p++;
+    if (p < end && !is_digit(*p) && *p != '.') {
+        if (special_value(p, (size_t)(end - p), value) != 0)
+            return -1;
+        if (*start == '-')
+            *value = -*value;
+        return 0;
+    }
+    return parse_decimal(start, end, &stop, value) == 0 && stop == end ? 0 : -1;
 }

@@ -37,13 +37,24 @@ static void cannot_read(ObjState *s, const char *text, const char *end)
 
 static int vertex_line(ObjState *s, const char *p, const char *end, const char *text)
 {
-    const char *word, *word_end;
+    const char *word = NULL, *word_end = NULL;
     double value, point[3];
     int count = 0;
-    while (next_word(&p, end, &word, &word_end)) {
-        if (parse_double(word, word_end, &value) != 0) {
-            cannot_read(s, text, end);
-            return -1;
+    for (;;) {
+        const char *stop;
+        while (p < end && is_space(*p))
+            p++;
+        if (p >= end || *p == '#')
+            break;
+        /* A decimal number read where it starts, the line scanned once; anything else as a word. */
+        if (parse_decimal(p, end, &stop, &value) == 0 && (stop == end || is_space(*stop))) {
+            p = stop;
+        } else {
+            next_word(&p, end, &word, &word_end);
+            if (parse_double(word, word_end, &value) != 0) {
+                cannot_read(s, text, end);
+                return -1;
+            }
         }
         if (count < 3)
             point[count] = value;
@@ -82,26 +93,28 @@ static int signed_integer(const char **p, const char *end, int64_t *value)
     return 1;
 }
 
-/* The 0-based vertex of a corner word "i", "i/t", "i//n" or "i/t/n"; -1 after a failure. */
-static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end, const char *text,
-                             const char *end)
+/* The corner "i", "i/t", "i//n" or "i/t/n" that starts at *p: 1 and its vertex number as given,
+ * with *p after it; 0 if what starts there is not a corner (up to `end`). */
+static int corner_number(const char **p, const char *end, int64_t *given)
 {
-    const char *p = word;
-    int64_t given, ignored, defined = vertex_count(s);
+    const char *q = *p;
+    int64_t ignored;
     int part;
-    if (signed_integer(&p, word_end, &given) != 1) {
-        cannot_read(s, text, end);
-        return -1;
+    if (signed_integer(&q, end, given) != 1)
+        return 0;
+    for (part = 0; part < 2 && q < end && *q == '/'; part++) {
+        q++;
+        if (signed_integer(&q, end, &ignored) < 0)
+            return 0;
     }
-    for (part = 0; part < 2 && p < word_end && *p == '/'; part++) {
-        p++;
-        if (signed_integer(&p, word_end, &ignored) < 0)
-            break;
-    }
-    if (p != word_end) {
-        cannot_read(s, text, end);
-        return -1;
-    }
+    *p = q;
+    return 1;
+}
+
+/* The 0-based vertex of a corner given as `given`; -1 after a failure. */
+static int64_t corner_index(ObjState *s, int64_t given)
+{
+    int64_t defined = vertex_count(s);
     if (given == 0) {
         fail(s->failure, ERR_PARSE, "re-export the mesh",
              "line %lld: face corner 0 (OBJ numbers vertices from 1)", (long long)s->line);
@@ -116,13 +129,40 @@ static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end
     return given > 0 ? given - 1 : defined + given;
 }
 
+/* The 0-based vertex of a corner word; -1 after a failure. */
+static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end, const char *text,
+                             const char *end)
+{
+    const char *p = word;
+    int64_t given;
+    if (!corner_number(&p, word_end, &given) || p != word_end) {
+        cannot_read(s, text, end);
+        return -1;
+    }
+    return corner_index(s, given);
+}
+
 static int face_line(ObjState *s, const char *p, const char *end, const char *text)
 {
-    const char *word, *word_end;
+    const char *word = NULL, *word_end = NULL;
     int64_t count, k, *corners;
     s->corners.size = 0;
-    while (next_word(&p, end, &word, &word_end)) {
-        int64_t vertex = corner_vertex(s, word, word_end, text, end);
+    for (;;) {
+        const char *q;
+        int64_t vertex, given;
+        while (p < end && is_space(*p))
+            p++;
+        if (p >= end || *p == '#')
+            break;
+        q = p;
+        /* A corner read where it starts, the line scanned once; anything else as a word. */
+        if (corner_number(&q, end, &given) && (q == end || is_space(*q))) {
+            p = q;
+            vertex = corner_index(s, given);
+        } else {
+            next_word(&p, end, &word, &word_end);
+            vertex = corner_vertex(s, word, word_end, text, end);
+        }
         if (vertex < 0)
             return -1;
         if (reserve(&s->corners, sizeof vertex) != 0) {

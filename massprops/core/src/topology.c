@@ -119,25 +119,87 @@ static void file_part(void *arg, int64_t part)
     }
 }
 
-static int compare_entries(const void *a, const void *b)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
-}
-
-static void sort_entries(uint32_t *list, int64_t k)
+static void insertion_sort(uint32_t *list, int64_t k)
 {
     int64_t i, j;
-    if (k > 32) {
-        qsort(list, (size_t)k, sizeof *list, compare_entries);
-        return;
-    }
     for (i = 1; i < k; i++) {
         uint32_t value = list[i];
         for (j = i; j > 0 && list[j - 1] > value; j--)
             list[j] = list[j - 1];
         list[j] = value;
     }
+}
+
+static void sift_down(uint32_t *list, int64_t root, int64_t k)
+{
+    uint32_t value = list[root];
+    int64_t child;
+    while ((child = 2 * root + 1) < k) {
+        if (child + 1 < k && list[child + 1] > list[child])
+            child++;
+        if (list[child] <= value)
+            break;
+        list[root] = list[child];
+        root = child;
+    }
+    list[root] = value;
+}
+
+static void heap_sort(uint32_t *list, int64_t k)
+{
+    int64_t i;
+    for (i = k / 2 - 1; i >= 0; i--)
+        sift_down(list, i, k);
+    for (i = k - 1; i > 0; i--) {
+        uint32_t top = list[0];
+        list[0] = list[i];
+        list[i] = top;
+        sift_down(list, 0, i);
+    }
+}
+
+/* Ascending, in place: a quicksort (median of three, the smaller side first) that turns to heap
+ * sort when it goes too deep, and to insertion sort on short runs.  Equal entries are equal
+ * values, so any sort gives the same list.  (qsort's calls through a comparison function cost
+ * more than the sorting on a fan's centre.) */
+static void sort_entries(uint32_t *list, int64_t k)
+{
+    int depth = 0;
+    int64_t n;
+    for (n = k; n > 1; n >>= 1)
+        depth += 2;
+    while (k > 32) {
+        uint32_t a, b, c, pivot, t;
+        int64_t i, j;
+        if (depth-- == 0) {
+            heap_sort(list, k);
+            return;
+        }
+        a = list[0], b = list[k / 2], c = list[k - 1];
+        pivot = a < b ? (b < c ? b : a < c ? c : a) : (a < c ? a : b < c ? c : b);
+        i = -1, j = k;
+        for (;;) {                                       /* Hoare's partition */
+            do
+                i++;
+            while (list[i] < pivot);
+            do
+                j--;
+            while (list[j] > pivot);
+            if (i >= j)
+                break;
+            t = list[i], list[i] = list[j], list[j] = t;
+        }
+        /* [0, j] <= pivot <= [j + 1, k): sort the smaller side, loop on the larger */
+        if (j + 1 < k - j - 1) {
+            sort_entries(list, j + 1);
+            list += j + 1;
+            k -= j + 1;
+        } else {
+            sort_entries(list + j + 1, k - j - 1);
+            k = j + 1;
+        }
+    }
+    insertion_sort(list, k);
 }
 
 /* Keep the smallest (a, b) seen: the first such edge in vertex order. */
