@@ -353,6 +353,42 @@ def test_a_closed_shell_meets_itself_exactly_where_pairs_of_its_faces_do(seed, m
     assert reported == crossing_pairs(points, faces)
 
 
+def _meeting_shell_pairs(points, faces, labels):
+    """Every pair of shells with two faces that share a point (touching counts), exactly."""
+    triangles = [[points[i] for i in f] for f in faces]
+    return {(min(labels[a], labels[b]), max(labels[a], labels[b]))
+            for a in range(len(faces)) for b in range(a + 1, len(faces))
+            if labels[a] != labels[b] and not separated(triangles[a], triangles[b])}
+
+
+_corner = st.lists(st.integers(-3, 3), min_size=3, max_size=3)
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.lists(st.tuples(st.lists(st.integers(-12, 12), min_size=3, max_size=3), _corner, _corner, _corner),
+                min_size=2, max_size=45),
+       st.lists(st.integers(0, 3), min_size=45, max_size=45), st.sampled_from([1, 3, 8]),
+       st.sampled_from([1.0, 2.0 ** -30, 2.0 ** 40]))
+def test_a_soup_of_small_triangles_meets_exactly_where_pairs_of_its_faces_do(placed, labels, spread, scale):
+    """Loose triangles over many grid cells (or crowded into a few, spread 1), touching, crossing and
+    coplanar on a small integer grid: within one shell and between shells, the sweep, the
+    separating planes and the exact tests together against every pair tested exactly."""
+    points, faces = [], []
+    for base, *corners in placed:
+        triangle = [[spread * base[k] + c[k] for k in range(3)] for c in corners]
+        if _area_zero(triangle):
+            continue
+        faces.append([len(points), len(points) + 1, len(points) + 2])
+        points.extend(triangle)
+    if len(faces) < 2:
+        return
+    reported, geometry = search_pairs(np.array(points, dtype=float) * scale, faces)
+    assert reported == crossing_pairs(points, faces)
+    labels = labels[:len(faces)]
+    found = geometry.intersections(np.array(faces), np.array(labels), 4, within=False, between=True)
+    assert {tuple(p) for p in found.shell_pairs.tolist()} == _meeting_shell_pairs(points, faces, labels)
+
+
 def test_what_the_search_reports_does_not_depend_on_the_thread_count():
     """Many shells crossing each other and themselves: the same shells, pairs and examples."""
     from massprops.validation import solids

@@ -25,31 +25,35 @@
  * by one, which costs less than the grouping). */
 #define HUB_DEGREE 16
 
-/* LSD radix sort on 8-bit digits, histograms in one pass, digits every key shares skipped. */
+/* LSD radix sort on 11-bit digits (six cover the key), histograms in one pass, digits every key
+ * shares skipped (cell keys of one level differ in few bits: two or three passes). */
+#define DIGIT_BITS 11
+#define DIGITS 6
 int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64_t n)
 {
-    size_t (*count)[256] = calloc(8, sizeof(*count));
+    const uint64_t mask = (1u << DIGIT_BITS) - 1;
+    size_t (*count)[1 << DIGIT_BITS] = calloc(DIGITS, sizeof(*count));
     if (!count)
         return -1;
     for (int64_t i = 0; i < n; i++) {
         uint64_t k = key[i];
-        for (int d = 0; d < 8; d++)
-            count[d][(k >> (8 * d)) & 0xFF]++;
+        for (int d = 0; d < DIGITS; d++)
+            count[d][(k >> (DIGIT_BITS * d)) & mask]++;
     }
     uint64_t *src_k = key, *dst_k = tk;
     uint32_t *src_v = value, *dst_v = tv;
-    for (int d = 0; d < 8; d++) {
-        int shift = 8 * d;
-        if (n == 0 || count[d][(key[0] >> shift) & 0xFF] == (size_t)n)
+    for (int d = 0; d < DIGITS; d++) {
+        int shift = DIGIT_BITS * d;
+        if (n == 0 || count[d][(key[0] >> shift) & mask] == (size_t)n)
             continue;
         size_t sum = 0;
-        for (int b = 0; b < 256; b++) {
+        for (int b = 0; b <= (int)mask; b++) {
             size_t c = count[d][b];
             count[d][b] = sum;
             sum += c;
         }
         for (int64_t i = 0; i < n; i++) {
-            size_t slot = count[d][(src_k[i] >> shift) & 0xFF]++;
+            size_t slot = count[d][(src_k[i] >> shift) & mask]++;
             dst_k[slot] = src_k[i];
             dst_v[slot] = src_v[i];
         }
@@ -118,8 +122,9 @@ int64_t grid_find(const Grid *g, int level, uint64_t key)
 
 void grid_free(Grid *g)
 {
-    free(g->id), free(g->corner), free(g->shell), free(g->lo), free(g->hi), free(g->low_cell), free(g->axis),
-        free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key), free(g->face);
+    free(g->id), free(g->own_corner), free(g->own_shell), free(g->lo), free(g->hi), free(g->low_cell),
+        free(g->own_axis), free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key),
+        free(g->face);
     memset(g, 0, sizeof(*g));
 }
 
@@ -224,43 +229,123 @@ static int choose_base(Grid *g, double whole, double *base)
     return 0;
 }
 
-static int fill_faces(Grid *g, const int64_t *F, const int64_t *shell, const int8_t *axis, const int64_t *order,
-                      const int64_t *hub, const Stars *stars)
+/* Faces per block of the parallel loops below. */
+#define BUILD_BLOCK 65536
+
+typedef struct {
+    Grid *g;
+    const double *V;
+    const int64_t *F, *shell, *order, *hub;
+    const uint8_t *take;
+    const Stars *stars;
+    int8_t *axis;
+    int64_t m;
+    double base;
+    double (*box)[6];         /* per block of input faces: low corner, high corner */
+    int64_t *count;           /* per block: faces taken, then entries */
+    int64_t *hubs;            /* per block of input faces: faces taken with a hub */
+    double *lo, *hi;          /* per input face taken: its box (3 each) */
+    uint8_t *certified;       /* per input face taken: its certified corners */
+} Build;
+
+/* Input faces of one block: each taken face's projection axis (-1: not taken or zero area), box
+ * and certified corners. */
+static void axis_block(void *ctx, int64_t block)
 {
-    int64_t n = g->n;
-    g->id = malloc(sizeof(uint32_t) * n);
-    g->corner = malloc(sizeof(int64_t) * 3 * n);
-    g->shell = malloc(sizeof(int64_t) * n);
-    g->lo = malloc(sizeof(double) * 3 * n);
-    g->hi = malloc(sizeof(double) * 3 * n);
-    g->low_cell = malloc(sizeof(int32_t) * 3 * n);
-    g->axis = malloc(n);
-    g->level = malloc(n);
-    g->certified = malloc(n);
-    g->group_begin = malloc(sizeof(uint32_t) * n);
-    g->group_end = malloc(sizeof(uint32_t) * n);
-    if (!g->id || !g->corner || !g->shell || !g->lo || !g->hi || !g->low_cell || !g->axis || !g->level
-        || !g->certified || !g->group_begin || !g->group_end)
-        return -1;
-    for (int64_t s = 0; s < n; s++) {
-        int64_t t = order[s];
-        g->id[s] = (uint32_t)t;
-        g->shell[s] = shell[t];
-        g->axis[s] = axis[t];
+    Build *w = ctx;
+    int64_t t0 = block * BUILD_BLOCK, t1 = t0 + BUILD_BLOCK < w->m ? t0 + BUILD_BLOCK : w->m, n = 0, hubs = 0;
+    double *box = w->box[block];
+    for (int k = 0; k < 3; k++)
+        box[k] = INFINITY, box[3 + k] = -INFINITY;
+    for (int64_t t = t0; t < t1; t++) {
+        w->axis[t] = -1;
+        if (!w->take[t])
+            continue;
+        P a = w->V + 3 * w->F[3 * t], b = w->V + 3 * w->F[3 * t + 1], c = w->V + 3 * w->F[3 * t + 2];
+        w->axis[t] = (int8_t)triangle_axis(a, b, c);
+        if (w->axis[t] < 0)
+            continue;
         uint8_t certified = 0;
         for (int k = 0; k < 3; k++) {
-            int64_t v = F[3 * t + k];
-            g->corner[3 * s + k] = v;
-            if (stars && (stars->flag[v] & STAR_EMBEDDED))
+            double lo = dmin(a[k], dmin(b[k], c[k])), hi = dmax(a[k], dmax(b[k], c[k]));
+            w->lo[3 * t + k] = lo;
+            w->hi[3 * t + k] = hi;
+            box[k] = dmin(box[k], lo);
+            box[3 + k] = dmax(box[3 + k], hi);
+            if (w->stars && (w->stars->flag[w->F[3 * t + k]] & STAR_EMBEDDED))
                 certified |= (uint8_t)(1 << k);
         }
-        g->certified[s] = certified;
+        w->certified[t] = certified;
+        n++;
+        hubs += w->stars && hub_of(w->stars, w->F, t) >= 0;
+    }
+    w->count[block] = n;
+    w->hubs[block] = hubs;
+}
+
+/* Sorted faces of one block, when they are not the input's in order: their original index,
+ * shell, axis, corners, box and certified corners. */
+static void fill_block(void *ctx, int64_t block)
+{
+    Build *w = ctx;
+    Grid *g = w->g;
+    int64_t s0 = block * BUILD_BLOCK, s1 = s0 + BUILD_BLOCK < g->n ? s0 + BUILD_BLOCK : g->n;
+    for (int64_t s = s0; s < s1; s++) {
+        int64_t t = w->order[s];
+        g->id[s] = (uint32_t)t;
+        g->own_shell[s] = w->shell[t];
+        g->own_axis[s] = w->axis[t];
+        g->certified[s] = w->certified[t];
         for (int k = 0; k < 3; k++) {
-            P a = g->V + 3 * F[3 * t], b = g->V + 3 * F[3 * t + 1], c = g->V + 3 * F[3 * t + 2];
-            g->lo[3 * s + k] = dmin(a[k], dmin(b[k], c[k]));
-            g->hi[3 * s + k] = dmax(a[k], dmax(b[k], c[k]));
+            g->own_corner[3 * s + k] = w->F[3 * t + k];
+            g->lo[3 * s + k] = w->lo[3 * t + k];
+            g->hi[3 * s + k] = w->hi[3 * t + k];
         }
     }
+}
+
+/* Without an order (every face taken, none with a hub: the sorted order is the input's), the
+ * grid keeps pointers to the input's corners and shells, and the boxes found with the axes,
+ * instead of copies. */
+static int fill_faces(Grid *g, Build *w, int threads)
+{
+    int64_t n = g->n;
+    int grouped = 0;
+    for (int64_t s = 0; w->hub && s < n && !grouped; s++)
+        grouped = w->hub[s] >= 0;
+    if (!w->order) {
+        g->corner = w->F;
+        g->shell = w->shell;
+        g->axis = g->own_axis = w->axis;
+        g->lo = w->lo;
+        g->hi = w->hi;
+        g->certified = w->certified;
+        w->axis = NULL;
+        w->lo = w->hi = NULL;
+        w->certified = NULL;
+    } else {
+        g->id = malloc(sizeof(uint32_t) * n);
+        g->corner = g->own_corner = malloc(sizeof(int64_t) * 3 * n);
+        g->shell = g->own_shell = malloc(sizeof(int64_t) * n);
+        g->axis = g->own_axis = malloc(n);
+        g->lo = malloc(sizeof(double) * 3 * n);
+        g->hi = malloc(sizeof(double) * 3 * n);
+        g->certified = malloc(n);
+        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || !g->lo || !g->hi || !g->certified)
+            return -1;
+        parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);
+    }
+    g->low_cell = malloc(sizeof(int32_t) * 3 * n);
+    g->level = malloc(n);
+    if (!g->low_cell || !g->level)
+        return -1;
+    if (!grouped)
+        return 0;
+    g->group_begin = malloc(sizeof(uint32_t) * n);
+    g->group_end = malloc(sizeof(uint32_t) * n);
+    if (!g->group_begin || !g->group_end)
+        return -1;
+    const int64_t *hub = w->hub;
     for (int64_t s = 0; s < n;) {
         int64_t e = s + 1;
         while (hub[s] >= 0 && e < n && hub[e] == hub[s])
@@ -274,52 +359,15 @@ static int fill_faces(Grid *g, const int64_t *F, const int64_t *shell, const int
     return 0;
 }
 
-int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
-               const Stars *stars)
+/* Sorted faces of one block: level (the first whose side reaches the face's extent; level l has
+ * cells of side base * 2**l), level-0 cell of the low corner, and the block's entries. */
+static void level_block(void *ctx, int64_t block)
 {
-    memset(g, 0, sizeof(*g));
-    g->V = V;
-    int8_t *axis = malloc(m ? m : 1);
-    if (!axis)
-        return -1;
-    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    int64_t n = 0;
-    for (int64_t t = 0; t < m; t++) {
-        axis[t] = -1;
-        if (!take[t])
-            continue;
-        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
-        axis[t] = (int8_t)triangle_axis(a, b, c);
-        if (axis[t] < 0)
-            continue;
-        for (int k = 0; k < 3; k++) {
-            glo[k] = dmin(glo[k], dmin(a[k], dmin(b[k], c[k])));
-            ghi[k] = dmax(ghi[k], dmax(a[k], dmax(b[k], c[k])));
-        }
-        n++;
-    }
-    if (n == 0 || n >= ((int64_t)1 << 32)) {
-        free(axis);
-        return n == 0 ? 0 : -1;
-    }
-    g->n = n;
-    int64_t *hub = NULL, *order = face_order(F, axis, m, n, stars, &hub);
-    int status = order ? fill_faces(g, F, shell, axis, order, hub, stars) : -1;
-    free(axis), free(order), free(hub);
-    if (status < 0)
-        return -1;
-    double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2])), base;
-    if (!(whole > 0.0))
-        whole = 1.0;
-    if (choose_base(g, whole, &base) < 0)
-        return -1;
-    for (int k = 0; k < 3; k++)
-        g->origin[k] = glo[k];
-    g->inverse = 1.0 / base;
-    /* Level l has cells of side base * 2**l: a face's level is the first whose side reaches its
-     * extent.  Its cells are its level-0 cells shifted right by l. */
-    int64_t n_entries = 0;
-    for (int64_t t = 0; t < n; t++) {
+    Build *w = ctx;
+    Grid *g = w->g;
+    double base = w->base;
+    int64_t s0 = block * BUILD_BLOCK, s1 = s0 + BUILD_BLOCK < g->n ? s0 + BUILD_BLOCK : g->n, entries = 0;
+    for (int64_t t = s0; t < s1; t++) {
         double e = face_extent(g->lo + 3 * t, g->hi + 3 * t), size = base;
         int level = 0;
         while (level < MAX_LEVEL && e > size) {
@@ -327,15 +375,103 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
             size = ldexp(base, level);
         }
         g->level[t] = (int8_t)level;
-        g->used[level] = 1;
         int64_t count = 1;
         for (int k = 0; k < 3; k++) {
             int64_t c0 = grid_cell0(g, k, g->lo[3 * t + k]), c1 = grid_cell0(g, k, g->hi[3 * t + k]);
             g->low_cell[3 * t + k] = (int32_t)c0;
             count *= (c1 >> level) - (c0 >> level) + 1;
         }
-        n_entries += count;
+        entries += count;
     }
+    w->count[block] = entries;
+}
+
+/* The entries of one block of sorted faces, from the block's first entry on. */
+static void key_block(void *ctx, int64_t block)
+{
+    Build *w = ctx;
+    Grid *g = w->g;
+    int64_t s0 = block * BUILD_BLOCK, s1 = s0 + BUILD_BLOCK < g->n ? s0 + BUILD_BLOCK : g->n, e = w->count[block];
+    for (int64_t t = s0; t < s1; t++) {
+        int level = g->level[t];
+        int64_t c0[3], c1[3];
+        grid_face_cells(g, t, level, c0, c1);
+        for (int64_t a = c0[0]; a <= c1[0]; a++)
+            for (int64_t b = c0[1]; b <= c1[1]; b++)
+                for (int64_t c = c0[2]; c <= c1[2]; c++) {
+                    g->key[e] = grid_key(level, a, b, c);
+                    g->face[e] = (uint32_t)t;
+                    e++;
+                }
+    }
+}
+
+int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+               const Stars *stars, int threads)
+{
+    memset(g, 0, sizeof(*g));
+    g->V = V;
+    int64_t n_blocks = (m + BUILD_BLOCK - 1) / BUILD_BLOCK;
+    Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0,
+               malloc(sizeof(double[6]) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
+               malloc(sizeof(int64_t) * (n_blocks + 1)),
+               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1)};
+    int status = -1;
+    if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)
+        goto done;
+    parallel_blocks(threads, n_blocks, axis_block, &w);
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    int64_t n = 0, hubs = 0;
+    for (int64_t k = 0; k < n_blocks; k++) {
+        n += w.count[k];
+        hubs += w.hubs[k];
+        for (int a = 0; a < 3; a++) {
+            glo[a] = dmin(glo[a], w.box[k][a]);
+            ghi[a] = dmax(ghi[a], w.box[k][3 + a]);
+        }
+    }
+    if (n == 0 || n >= ((int64_t)1 << 32)) {
+        status = n == 0 ? 0 : -1;
+        goto done;
+    }
+    g->n = n;
+    int64_t *hub = NULL, *order = NULL;
+    if (n < m || hubs) {
+        order = face_order(F, w.axis, m, n, stars, &hub);
+        if (!order)
+            goto done;
+    }
+    w.order = order;
+    w.hub = hub;
+    status = fill_faces(g, &w, threads);
+    free(order), free(hub);
+    if (status < 0)
+        goto done;
+    status = -1;
+    double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2])), base;
+    if (!(whole > 0.0))
+        whole = 1.0;
+    if (choose_base(g, whole, &base) < 0)
+        goto done;
+    for (int k = 0; k < 3; k++)
+        g->origin[k] = glo[k];
+    g->inverse = 1.0 / base;
+    /* the blocks now run over sorted faces */
+    int64_t n_face_blocks = (n + BUILD_BLOCK - 1) / BUILD_BLOCK;
+    free(w.count);
+    w.count = malloc(sizeof(int64_t) * (n_face_blocks + 1));
+    if (!w.count)
+        goto done;
+    w.base = base;
+    parallel_blocks(threads, n_face_blocks, level_block, &w);
+    int64_t n_entries = 0;
+    for (int64_t k = 0; k < n_face_blocks; k++) {
+        int64_t c = w.count[k];
+        w.count[k] = n_entries;
+        n_entries += c;
+    }
+    for (int64_t t = 0; t < n; t++)
+        g->used[g->level[t]] = 1;
     int used_levels[MAX_LEVEL + 1];
     g->n_used = 0;
     for (int level = 0; level <= MAX_LEVEL; level++)
@@ -349,33 +485,21 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
     uint32_t *tv = malloc(sizeof(uint32_t) * n_entries);
     if (!g->key || !g->face || !tk || !tv) {
         free(tk), free(tv);
-        return -1;
+        goto done;
     }
-    int64_t e = 0;
-    for (int64_t t = 0; t < n; t++) {
-        int level = g->level[t];
-        int64_t c0[3], c1[3];
-        for (int k = 0; k < 3; k++) {
-            c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
-            c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
-        }
-        for (int64_t a = c0[0]; a <= c1[0]; a++)
-            for (int64_t b = c0[1]; b <= c1[1]; b++)
-                for (int64_t c = c0[2]; c <= c1[2]; c++) {
-                    g->key[e] = grid_key(level, a, b, c);
-                    g->face[e] = (uint32_t)t;
-                    e++;
-                }
-    }
+    parallel_blocks(threads, n_face_blocks, key_block, &w);
     int sorted = radix_sort(g->key, g->face, tk, tv, n_entries);
     free(tk), free(tv);
     if (sorted < 0)
-        return -1;
+        goto done;
     int64_t x = 0;
     for (int level = 0; level <= MAX_LEVEL + 1; level++) {
         while (x < n_entries && (int)(g->key[x] >> LEVEL_SHIFT) < level)
             x++;
         g->level_begin[level] = x;
     }
-    return 0;
+    status = 0;
+done:
+    free(w.axis), free(w.box), free(w.count), free(w.hubs), free(w.lo), free(w.hi), free(w.certified);
+    return status;
 }

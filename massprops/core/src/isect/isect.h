@@ -57,14 +57,18 @@ static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v
 typedef struct {
     const double *V;
     int64_t n;                /* faces taken (active, of non-zero area, and needed) */
-    uint32_t *id;             /* original face index */
-    int64_t *corner;          /* 3 per face */
-    int64_t *shell;
+    uint32_t *id;             /* original face index (NULL: the same, every face is taken in order) */
+    const int64_t *corner;    /* 3 per face (the input's when id is NULL) */
+    const int64_t *shell;
+    const int8_t *axis;
+    int64_t *own_corner, *own_shell;     /* what corner and shell point to when copied */
+    int8_t *own_axis;
     double *lo, *hi;          /* 3 per face: the face's box */
     int32_t *low_cell;        /* 3 per face: level-0 cell of lo */
-    int8_t *axis, *level;
+    int8_t *level;
     uint8_t *certified;       /* bit k: the star of corner k is certified embedded */
-    uint32_t *group_begin, *group_end;   /* faces sharing a hub vertex: consecutive, [begin, end) */
+    uint32_t *group_begin, *group_end;   /* faces sharing a hub vertex: consecutive, [begin, end)
+                                          * (NULL: no hubs, every face its own group) */
     /* grid: cells of level l have side base * 2**l; a cell's coordinates are level-0 cells >> l */
     double origin[3], inverse;            /* 1 / base */
     int used[MAX_LEVEL + 1], n_used;
@@ -75,15 +79,35 @@ typedef struct {
 } Grid;
 
 /* The grid of the faces with take[t] set (and non-zero area); 0, or -1 when memory ran out.
- * `stars` (or NULL) gives the certified corners and the hubs that group faces. */
+ * `stars` (or NULL) gives the certified corners and the hubs that group faces.  The grid does not
+ * depend on the thread count. */
 int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
-               const Stars *stars);
+               const Stars *stars, int threads);
 void grid_free(Grid *g);
+
+static inline int64_t grid_id(const Grid *g, int64_t t) { return g->id ? g->id[t] : t; }
+static inline uint32_t grid_group_begin(const Grid *g, int64_t t)
+{
+    return g->group_begin ? g->group_begin[t] : (uint32_t)t;
+}
+static inline uint32_t grid_group_end(const Grid *g, int64_t t)
+{
+    return g->group_end ? g->group_end[t] : (uint32_t)t + 1;
+}
 
 /* x is never below the origin, so truncation is the floor. */
 static inline int64_t grid_cell0(const Grid *g, int axis, double x)
 {
     return (int64_t)((x - g->origin[axis]) * g->inverse);
+}
+
+/* The cells of `level` that face t's box covers: c0[k] .. c1[k] on each axis. */
+static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t *c0, int64_t *c1)
+{
+    for (int k = 0; k < 3; k++) {
+        c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
+        c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
+    }
 }
 
 uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k);

@@ -1,8 +1,10 @@
 /* The pair search: which faces meet, within a shell and between shells.
  *
- * Candidates come from the grid (grid.c): pairs of faces in one cell.  Each
- * pair is decided once, in the cell of max(their boxes' lower corners) at the
- * coarser of their levels; before any predicate:
+ * Candidates come from the grid (grid.c): pairs of faces in one cell (within
+ * a level, the pairs a sweep along one axis finds overlapping there; a cell
+ * holding a hub group lists every pair but the group's).  Each pair is
+ * decided once, in the cell of max(their boxes' lower corners) at the coarser
+ * of their levels; before any predicate:
  *   - faces of one shell that the certificates cover (a shell certified
  *     embedded, a certified vertex in common, a common hub) are skipped: they
  *     meet only along what they share (stars.c);
@@ -42,6 +44,35 @@ typedef struct {
     int64_t count;
 } Seen;
 
+/* A face of the current cell, copied out for the sweep. */
+typedef struct {
+    double lo[3], hi[3];
+    int64_t corner[3], shell;
+    uint32_t face;
+    uint8_t certified, home;
+} Item;
+
+/* A face of the sweep, in sorted order: its interval along the sweep axis, its box on the other
+ * two (low, high, low, high), its home bits, and its Item. */
+typedef struct {
+    double lo, hi, box[4];
+    uint8_t home;
+    uint32_t item;
+} Slab;
+
+typedef struct {
+    double x;
+    uint32_t i;
+} SortKey;
+
+typedef struct {
+    Item *items;              /* cap each */
+    Slab *slabs;
+    uint32_t *hits;
+    SortKey *keys;            /* 2 cap */
+    int64_t cap;
+} Scratch;
+
 typedef struct {
     const Grid *g;
     int within, between;
@@ -51,11 +82,12 @@ typedef struct {
     int64_t *entry_cut;       /* n_entry_blocks + 1 cuts, at key boundaries */
     Block *blocks;
     Seen *seen;               /* per worker */
+    Scratch *scratch;         /* per worker */
 } Search;
 
 /* ---- the float separation filter -------------------------------------------------------- */
 
-/* Whether the plane of normal n (any vector: t's normal rounded) certifiably has one triangle's
+/* Whether the plane of normal n (any vector; see separated) certifiably has one triangle's
  * corners x strictly below every corner p of the other.  For e(p) = fl(n . p) (three products,
  * two sums), |e(p) - n.p| <= g3 S(p), S(p) = sum |n_k p_k|, g3 = 3u / (1 - 3u) (Higham, 3.1).
  * M = the largest rounded S over the six corners has S(p) <= M / (1 - g3).  If
@@ -88,7 +120,10 @@ static inline void rounded_normal(P const *t, double *n)
     n[2] = u[0] * v[1] - u[1] * v[0];
 }
 
-/* Triangles a and b certifiably lie on two sides of the plane of one of them. */
+/* Triangles a and b certifiably lie on two sides of a plane: one of them's, or one parallel to an
+ * edge of each (the candidate axes of the separating-axis theorem; they separate the pairs near
+ * a saddle that straddle each other's planes).  Each normal is a rounded cross product of corner
+ * differences, as the faces' normals are, so no product in slab_separates underflows. */
 static int separated(P const *a, P const *b)
 {
     double n[3];
@@ -96,7 +131,22 @@ static int separated(P const *a, P const *b)
     if (slab_separates(n, a, b))
         return 1;
     rounded_normal(b, n);
-    return slab_separates(n, a, b);
+    if (slab_separates(n, a, b))
+        return 1;
+    for (int i = 0; i < 3; i++) {
+        P a0 = a[i], a1 = a[(i + 1) % 3];
+        double u[3] = {a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]};
+        for (int j = 0; j < 3; j++) {
+            P b0 = b[j], b1 = b[(j + 1) % 3];
+            double v[3] = {b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]};
+            n[0] = u[1] * v[2] - u[2] * v[1];
+            n[1] = u[2] * v[0] - u[0] * v[2];
+            n[2] = u[0] * v[1] - u[1] * v[0];
+            if (slab_separates(n, a, b))
+                return 1;
+        }
+    }
+    return 0;
 }
 
 /* ---- pair tests ----------------------------------------------------------------------------- */
@@ -235,7 +285,7 @@ static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u
             return;
         }
         if (b->n_examples < s->max_examples) {
-            int64_t x = g->id[t], y = g->id[u];
+            int64_t x = grid_id(g, t), y = grid_id(g, u);
             b->examples[2 * b->n_examples] = x < y ? x : y;
             b->examples[2 * b->n_examples + 1] = x < y ? y : x;
             b->n_examples++;
@@ -256,7 +306,7 @@ static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u
     b->tests++;
     if (!other_hit(g, t, u))
         return;
-    int64_t row[4] = {st, su, g->id[t], g->id[u]};
+    int64_t row[4] = {st, su, grid_id(g, t), grid_id(g, u)};
     if (seen_add(seen, key) < 0 || append(&b->found, &b->n_found, &b->cap_found, 4, row) < 0)
         b->failed = 1;
 }
@@ -311,29 +361,197 @@ static inline void candidate(const Search *s, Block *b, Seen *seen, int64_t t, i
         consider(s, b, seen, t, u);
 }
 
+/* The pairs of the faces of run [e, run) one by one; faces of one hub group are consecutive in a
+ * run: their pairs are skipped as a block. */
+static void all_pairs(const Search *s, Block *b, Seen *seen, int64_t e, int64_t run, int level, const int64_t *cell)
+{
+    const Grid *g = s->g;
+    for (int64_t i = e; i < run;) {
+        uint32_t group_end = grid_group_end(g, g->face[i]);
+        int64_t after = i + 1;
+        while (after < run && g->face[after] < group_end)
+            after++;
+        for (int64_t x = i; x < after; x++)
+            for (int64_t y = after; y < run; y++)
+                candidate(s, b, seen, g->face[x], g->face[y], level, cell);
+        i = after;
+    }
+}
+
+/* share_certified on copied faces: a corner of x whose star is certified is a corner of y. */
+static inline int items_share_certified(const Item *x, const Item *y)
+{
+    uint8_t c = x->certified;
+    for (int k = 0; k < 3; k++)
+        if ((c >> k & 1)
+            && (x->corner[k] == y->corner[0] || x->corner[k] == y->corner[1] || x->corner[k] == y->corner[2]))
+            return 1;
+    return 0;
+}
+
+static int scratch_reserve(Scratch *sc, int64_t k)
+{
+    if (k <= sc->cap)
+        return 0;
+    int64_t cap = sc->cap ? sc->cap : 64;
+    while (cap < k)
+        cap *= 2;
+    Item *items = malloc(sizeof(Item) * cap);
+    Slab *slabs = malloc(sizeof(Slab) * cap);
+    uint32_t *hits = malloc(sizeof(uint32_t) * cap);
+    SortKey *keys = malloc(sizeof(SortKey) * 2 * cap);
+    if (!items || !slabs || !hits || !keys) {
+        free(items), free(slabs), free(hits), free(keys);
+        return -1;
+    }
+    free(sc->items), free(sc->slabs), free(sc->hits), free(sc->keys);
+    sc->items = items;
+    sc->slabs = slabs;
+    sc->hits = hits;
+    sc->keys = keys;
+    sc->cap = cap;
+    return 0;
+}
+
+/* Sort keys[0..k) by x, stably: insertion sort for short runs, bottom-up merges above (tmp: k). */
+static SortKey *sort_keys(SortKey *keys, SortKey *tmp, int64_t k)
+{
+    const int64_t width0 = 16;
+    for (int64_t start = 0; start < k; start += width0) {
+        int64_t stop = start + width0 < k ? start + width0 : k;
+        for (int64_t i = start + 1; i < stop; i++) {
+            SortKey x = keys[i];
+            int64_t j = i;
+            while (j > start && keys[j - 1].x > x.x) {
+                keys[j] = keys[j - 1];
+                j--;
+            }
+            keys[j] = x;
+        }
+    }
+    SortKey *src = keys, *dst = tmp;
+    for (int64_t width = width0; width < k; width *= 2) {
+        for (int64_t start = 0; start < k; start += 2 * width) {
+            int64_t mid = start + width < k ? start + width : k, stop = start + 2 * width < k ? start + 2 * width : k;
+            int64_t i = start, j = mid, o = start;
+            while (i < mid && j < stop)
+                dst[o++] = src[j].x < src[i].x ? src[j++] : src[i++];
+            while (i < mid)
+                dst[o++] = src[i++];
+            while (j < stop)
+                dst[o++] = src[j++];
+        }
+        SortKey *x = src;
+        src = dst;
+        dst = x;
+    }
+    return src;
+}
+
+/* The pairs of run [e, run) whose boxes meet, by a sweep: the faces sorted by their boxes' low
+ * end along one axis, each face meets on that axis exactly the faces after it whose low end is at
+ * most its high end (both boxes are closed intervals, the later starts no earlier), so stopping
+ * at the first that starts above it misses no pair.  The axis is the one along which the faces
+ * are shortest against the run's extent.  A pair is decided in the cell of max(lower corners):
+ * every face of the cell has its low cell at most the cell's on each axis, so that is the cell
+ * exactly when, on every axis, one of the two has its low cell there (`home` bits).  0, or -1
+ * out of memory (nothing done). */
+static int sweep_pairs(const Search *s, Block *b, Seen *seen, Scratch *sc, int64_t e, int64_t run, int level,
+                       const int64_t *cell)
+{
+    const Grid *g = s->g;
+    int64_t k = run - e;
+    if (scratch_reserve(sc, k) < 0)
+        return -1;
+    double length[3] = {0.0, 0.0, 0.0}, low[3] = {INFINITY, INFINITY, INFINITY};
+    double high[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t i = 0; i < k; i++) {
+        uint32_t t = g->face[e + i];
+        Item *it = &sc->items[i];
+        it->face = t;
+        it->shell = g->shell[t];
+        it->certified = g->certified[t];
+        uint8_t home = 0;
+        for (int a = 0; a < 3; a++) {
+            it->lo[a] = g->lo[3 * t + a];
+            it->hi[a] = g->hi[3 * t + a];
+            it->corner[a] = g->corner[3 * t + a];
+            home |= (uint8_t)(((int64_t)g->low_cell[3 * t + a] >> level == cell[a]) << a);
+            length[a] += it->hi[a] - it->lo[a];
+            low[a] = dmin(low[a], it->lo[a]);
+            high[a] = dmax(high[a], it->hi[a]);
+        }
+        it->home = home;
+    }
+    int axis = 0;
+    double best = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        double span = high[a] - low[a], ratio = span > 0.0 ? length[a] / span : INFINITY;
+        if (ratio < best) {
+            best = ratio;
+            axis = a;
+        }
+    }
+    int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    for (int64_t i = 0; i < k; i++) {
+        sc->keys[i].x = sc->items[i].lo[axis];
+        sc->keys[i].i = (uint32_t)i;
+    }
+    SortKey *order = sort_keys(sc->keys, sc->keys + k, k);
+    Slab *S = sc->slabs;
+    for (int64_t i = 0; i < k; i++) {
+        const Item *it = &sc->items[order[i].i];
+        S[i] = (Slab){it->lo[axis], it->hi[axis], {it->lo[a1], it->hi[a1], it->lo[a2], it->hi[a2]}, it->home,
+                      order[i].i};
+    }
+    uint32_t *hits = sc->hits;
+    int64_t candidates = 0;
+    for (int64_t i = 0; i < k && !b->failed; i++) {
+        const Slab x = S[i];
+        int64_t n_hits = 0, j = i + 1;
+        for (; j < k && S[j].lo <= x.hi; j++) {
+            const Slab *y = &S[j];
+            hits[n_hits] = (uint32_t)j;
+            n_hits += (x.box[0] <= y->box[1]) & (y->box[0] <= x.box[1]) & (x.box[2] <= y->box[3])
+                      & (y->box[2] <= x.box[3]) & ((x.home | y->home) == 7);
+        }
+        candidates += j - i - 1;
+        const Item *p = &sc->items[x.item];
+        for (int64_t h = 0; h < n_hits; h++) {
+            const Item *q = &sc->items[S[hits[h]].item];
+            if (p->shell == q->shell) {
+                if (!s->within || (s->embedded && s->embedded[p->shell]) || items_share_certified(p, q))
+                    continue;
+            } else if (!s->between) {
+                continue;
+            }
+            int64_t t = p->face < q->face ? p->face : q->face, u = p->face < q->face ? q->face : p->face;
+            consider(s, b, seen, t, u);
+        }
+    }
+    b->candidates += candidates;
+    return 0;
+}
+
 /* Pairs within a level: the entries [begin, end) of the block, runs of one key. */
-static void search_cells(const Search *s, Block *b, Seen *seen, int64_t begin, int64_t end)
+static void search_cells(const Search *s, Block *b, Seen *seen, Scratch *sc, int64_t begin, int64_t end)
 {
     const Grid *g = s->g;
     int64_t e = begin;
     while (e < end && !b->failed) {
         int64_t run = e + 1;
+        int grouped = 0;
         while (run < g->n_entries && g->key[run] == g->key[e])
             run++;
+        for (int64_t i = e; g->group_begin && i < run && !grouped; i++)
+            grouped = g->group_end[g->face[i]] - g->group_begin[g->face[i]] > 1;
         int level = (int)(g->key[e] >> LEVEL_SHIFT);
         int64_t cell[3];
         grid_key_cell(g->key[e] & ((1ULL << LEVEL_SHIFT) - 1), cell);
-        /* faces of one hub group are consecutive in a run: their pairs are skipped as a block */
-        for (int64_t i = e; i < run;) {
-            uint32_t group_end = g->group_end[g->face[i]];
-            int64_t after = i + 1;
-            while (after < run && g->face[after] < group_end)
-                after++;
-            for (int64_t x = i; x < after; x++)
-                for (int64_t y = after; y < run; y++)
-                    candidate(s, b, seen, g->face[x], g->face[y], level, cell);
-            i = after;
-        }
+        /* a sweep finds the pairs whose boxes meet without looking at the others; a hub group's
+         * faces all meet at the hub, so there its pairs are skipped as a block instead */
+        if (run - e > 1 && (grouped || sweep_pairs(s, b, seen, sc, e, run, level, cell) < 0))
+            all_pairs(s, b, seen, e, run, level, cell);
         e = run;
     }
 }
@@ -357,16 +575,13 @@ static void search_levels(const Search *s, Block *b, Seen *seen, int64_t begin, 
     const Grid *g = s->g;
     for (int64_t t = begin; t < end && !b->failed; t++) {
         int level = g->level[t];
-        uint32_t group_begin = g->group_begin[t], group_end = g->group_end[t];
+        uint32_t group_begin = grid_group_begin(g, t), group_end = grid_group_end(g, t);
         for (int l = 0; l < g->n_used; l++) {
             int coarse = g->used[l];
             if (coarse <= level)
                 continue;
             int64_t c0[3], c1[3];
-            for (int k = 0; k < 3; k++) {
-                c0[k] = (int64_t)g->low_cell[3 * t + k] >> coarse;
-                c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> coarse;
-            }
+            grid_face_cells(g, t, coarse, c0, c1);
             for (int64_t x = c0[0]; x <= c1[0]; x++)
                 for (int64_t y = c0[1]; y <= c1[1]; y++)
                     for (int64_t z = c0[2]; z <= c1[2]; z++) {
@@ -406,7 +621,7 @@ static void search_block(void *ctx, int worker, int64_t block)
         return;
     }
     if (block < s->n_entry_blocks)
-        search_cells(s, b, seen, s->entry_cut[block], s->entry_cut[block + 1]);
+        search_cells(s, b, seen, &s->scratch[worker], s->entry_cut[block], s->entry_cut[block + 1]);
     else {
         int64_t k = block - s->n_entry_blocks;
         int64_t end = (k + 1) * FACE_BLOCK < s->g->n ? (k + 1) * FACE_BLOCK : s->g->n;
@@ -474,8 +689,9 @@ static int run_search(Search *s, int threads, Found *out)
     int workers = threads < 1 ? 1 : threads;
     s->blocks = calloc(n_blocks ? n_blocks : 1, sizeof(Block));
     s->seen = calloc(workers, sizeof(Seen));
+    s->scratch = calloc(workers, sizeof(Scratch));
     int status = -1;
-    if (!s->blocks || !s->seen)
+    if (!s->blocks || !s->seen || !s->scratch)
         goto done;
     for (int k = 0; k < workers; k++) {
         s->seen[k].slots = calloc(64, sizeof(uint64_t));
@@ -496,7 +712,9 @@ done:
     }
     for (int k = 0; s->seen && k < workers; k++)
         free(s->seen[k].slots);
-    free(s->blocks), free(s->seen), free(s->entry_cut);
+    for (int k = 0; s->scratch && k < workers; k++)
+        free(s->scratch[k].items), free(s->scratch[k].slabs), free(s->scratch[k].hits), free(s->scratch[k].keys);
+    free(s->blocks), free(s->seen), free(s->scratch), free(s->entry_cut);
     return status;
 }
 
@@ -530,7 +748,7 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
     }
     Grid g;
     memset(&g, 0, sizeof(g));
-    int status = taken ? grid_build(&g, V, F, shell, take, m, have_stars ? stars : NULL) : 0;
+    int status = taken ? grid_build(&g, V, F, shell, take, m, have_stars ? stars : NULL, threads) : 0;
     free(take);
     if (status == 0 && g.n > 0) {
         Search s;
