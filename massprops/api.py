@@ -73,7 +73,7 @@ def mass_properties(source: Source, *, density: float | None = None, mass: float
         least 64 MiB.
     self_intersection : bool, optional
         Check that no shell intersects itself (a refusal if one does): True
-        always, False never, None (default) up to 100,000 faces
+        always, False never, None (default) up to 200,000 faces
         (:data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`).
         ``checks["self_intersection"]`` says ``"none"`` or ``"not checked"``.
 

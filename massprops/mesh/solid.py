@@ -43,9 +43,10 @@ __all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "witho
            "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
 
 # By default the self-intersection check runs on meshes up to this many faces: there it costs at most about
-# a fifth of `massprops props` end to end; at 200k-300k faces a third or more, on the 1.31M icosphere half
-# (benchmarks/bench_solid.py, docs/speed.md).  ``self_intersection=True`` forces it at any size.
-SELF_INTERSECTION_UP_TO = 100_000
+# a fifth of `massprops props` end to end on a torus (no shell or star certified whole; about 330 ns a
+# face); at 300k faces a quarter, at 1.2M over 40% (benchmarks/bench_solid.py, docs/speed.md).
+# ``self_intersection=True`` forces it at any size.
+SELF_INTERSECTION_UP_TO = 200_000
 
 
 @dataclass(frozen=True)
