@@ -262,3 +262,27 @@ def test_meshes_sharing_a_face_keep_the_sum():
     _covers(link.props, exact)
     assert link.props.volume == 2.0 and link.props.center_of_mass[0] == 1.0
     assert link.checks["overlap"] == 0 and not link.warnings
+
+
+
+def test_copies_of_one_cylinder_whose_double_count_may_exceed_the_sum_still_have_properties(tmp_path):
+    # Four copies of one cylinder: the union is one cylinder, the sum four; the volume counted twice is bounded
+    # pair by pair, which exceeds the whole sum.  The link, and the robot's total, still have a center of mass,
+    # with bounds that cover the union's values.
+    from massprops.robot.analyze import RobotSettings, analyze
+
+    r, length = 0.25, 1.0
+    copies = [Geometry("cylinder", "collision", f"c{k}", size={"radius": r, "length": length}) for k in range(4)]
+    link = _link(*copies)
+    one = math.pi * r * r * length
+    props = link.props
+    assert props.volume == pytest.approx(4 * one, rel=1e-14)
+    assert props.error.mass > props.mass
+    axial, transverse = one * r * r / 2, one * (3 * r * r + length * length) / 12
+    _covers(props, (Fraction(one), [0, 0, 0], [[transverse, 0, 0], [0, transverse, 0], [0, 0, axial]]))
+    cylinder = f'<collision><geometry><cylinder radius="{r}" length="{length}"/></geometry></collision>'
+    path = tmp_path / "copies.urdf"
+    path.write_text(f'<robot name="r"><link name="l">{cylinder * 4}</link></robot>')
+    whole = analyze(str(path), RobotSettings(command="props", density=1.0))
+    assert whole["status"] == "ok" and whole["links"][0]["status"] == "ok"
+    assert whole["total"]["mass"] == pytest.approx(4 * one, rel=1e-14)

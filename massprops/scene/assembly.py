@@ -256,9 +256,9 @@ def _summed(local, index, rotation, translation, unit):
     error = dict(volume=exact_sum(per_instance(lambda p: p.error.volume)) + gamma * total_volume, mass=err_mass)
     com = inertia = None
     if local[0].center_of_mass is not None:
-        if not total_mass > err_mass:
-            raise MeshGeometryError(f"the parts' total mass is {total_mass:g} (± {err_mass:.2g}): no center of "
-                                    "mass", fix="give the parts a positive density or mass")
+        if not total_mass > 0:
+            raise MeshGeometryError(f"the parts' total mass is {total_mass:g}: no center of mass",
+                                    fix="give the parts a positive density or mass")
         com, inertia, error = _combine_moments(local, index, rotation, translation, mass, err_mass_i,
                                                total_mass, gamma, error)
     surface_area = exact_sum(per_instance(lambda p: p.surface_area))
