@@ -96,8 +96,6 @@ class ExactGeometry:
         # Each snapped coordinate moves by less than 2**-200 (scaled): the vertex by less than √3 times that.
         self.moved = np.full(self.moved_vertices.size, math.ldexp(1.8, frame.scale_exp - 200))
         self.vertices = np.asarray(scaled)
-        self.reference = np.array(frame.reference)
-        self.scale_exp = frame.scale_exp
         self.frame = frame
 
     def zero_area(self, faces):
