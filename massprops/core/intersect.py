@@ -24,6 +24,7 @@ import numpy as np
 from . import _core
 from .arrays import as_points
 from .frame import frame_of
+from .threads import threads_for
 
 # Faces above which the intersection tests run on several threads (below, a thread costs more than it saves).
 _PARALLEL_ABOVE = 1 << 16
@@ -125,12 +126,9 @@ class ExactGeometry:
         -------
         Intersections
         """
-        from .threads import thread_count
-
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         if threads is None:
-            # Starting threads costs more than it saves on small meshes.
-            threads = thread_count() if faces.shape[0] > _PARALLEL_ABOVE else 1
+            threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
         shells = np.ascontiguousarray(shells, dtype=np.int64)
         active = (np.ones(faces.shape[0], dtype=np.uint8) if active is None
                   else np.ascontiguousarray(active, dtype=np.uint8))
@@ -172,13 +170,11 @@ class ExactGeometry:
         shells : ndarray, shape (n_shells,), bool
             Per shell: certified as a whole.
         """
-        from .threads import thread_count
-
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         shells = (np.zeros(faces.shape[0], dtype=np.int64) if shells is None
                   else np.ascontiguousarray(shells, dtype=np.int64))
         if threads is None:
-            threads = thread_count() if faces.shape[0] > _PARALLEL_ABOVE else 1
+            threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
         stars, whole = _extension().certificates(self.vertices, faces, shells, max(1, int(n_shells)), int(threads))
         return (np.frombuffer(stars, dtype=np.uint8).astype(bool),
                 np.frombuffer(whole, dtype=np.uint8).astype(bool)[:n_shells])

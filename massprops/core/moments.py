@@ -24,7 +24,7 @@ import numpy as np
 from . import _core
 from .arrays import as_indices, as_points
 from .frame import frame_of
-from .threads import thread_count
+from .threads import threads_for
 
 __all__ = ["Moments", "integrate"]
 
@@ -104,9 +104,8 @@ def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame
         if weights.shape != (faces.shape[0],):
             raise ValueError(f"weights: expected shape ({faces.shape[0]},), got {weights.shape}")
     frame = frame_of(vertices) if frame is None else frame
-    threads = thread_count()
     arguments = (vertices, faces, frame.reference, frame.scale_exp, frame.radius, order, measure == "area",
-                 weights, threads if faces.shape[0] > _PARALLEL_ABOVE else 1)
+                 weights, threads_for(faces.shape[0], _PARALLEL_ABOVE))
     sums = _core.integrate(*arguments, False)
     area2 = sums["area2"]
     if measure == "volume" and sums["abs_sum"] > _CANCELLATION_LIMIT * abs(sums["det_sum"]):

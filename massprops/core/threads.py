@@ -6,7 +6,7 @@ import os
 
 from ..errors import OptionError
 
-__all__ = ["thread_count"]
+__all__ = ["thread_count", "threads_for"]
 
 
 def thread_count():
@@ -29,3 +29,10 @@ def thread_count():
             raise OptionError(f"MASSPROPS_THREADS must be a whole number of threads, got {wanted!r}",
                               fix="set it to 1, 2, ... or unset it") from None
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def threads_for(items, above):
+    """Threads for a job of ``items`` faces: one up to ``above`` (there starting a thread costs more than it
+    saves), else :func:`thread_count`.  ``MASSPROPS_THREADS`` is checked either way."""
+    threads = thread_count()
+    return threads if items > above else 1

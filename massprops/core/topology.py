@@ -14,7 +14,7 @@ import numpy as np
 
 from . import _core
 from .arrays import as_indices
-from .threads import thread_count
+from .threads import threads_for
 
 # Faces above which edges are matched on several threads: below, starting a thread costs more than it saves.
 _PARALLEL_ABOVE = 1 << 14
@@ -91,8 +91,7 @@ def edge_summary(faces, n_vertices, *, arrays=False):
         2**31 vertices or more.
     """
     faces = as_indices(faces)
-    threads = thread_count()
-    found = _core.edge_summary(faces, int(n_vertices), threads if faces.shape[0] > _PARALLEL_ABOVE else 1, arrays)
+    found = _core.edge_summary(faces, int(n_vertices), threads_for(faces.shape[0], _PARALLEL_ABOVE), arrays)
     for name in ("first_boundary", "first_unbalanced"):
         found[name] = None if found[name][0] < 0 else found[name]
     for name in ("edge_vertices", "uses", "balance"):
