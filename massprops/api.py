@@ -72,10 +72,11 @@ def mass_properties(source: Source, *, density: float | None = None, mass: float
         Bytes an archive (3MF) may unpack to; default 100 times its size, at
         least 64 MiB.
     self_intersection : bool, optional
-        Check that no shell intersects itself (a refusal if one does): True
-        always, False never, None (default) up to 200,000 faces
-        (:data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`).
-        ``checks["self_intersection"]`` says ``"none"`` or ``"not checked"``.
+        Find faces that cross or overlap and integrate the region of positive
+        winding number (:mod:`massprops.mesh.arrangement`): None or True (the
+        default, at every size).  False integrates a one-shell surface's
+        signed volume as it is.  ``checks["self_intersection"]`` says
+        ``"none"``, ``"resolved"`` or ``"not checked"``.
 
     Returns
     -------

@@ -196,10 +196,13 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
         mesh, changes = repair_mesh(mesh, path=path)
         warnings += changes
     # The compiled core uses every core inside each step, so the steps run one after another.
-    mesh, checks, labels, welded, repeated, copies = _closed(mesh, path, warnings)
+    mesh, checks, labels, welded, repeated, weights = _closed(mesh, path, warnings)
     solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
-                   self_intersection=self_intersection, copies=copies)
+                   self_intersection=self_intersection, weights=weights)
     moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order, frame=solid.frame)
+    if solid.exact is not None:
+        from .mesh.shells import with_exact
+        moments = with_exact(moments, solid.exact, solid.exact_area2)
     warnings += solid.warnings
     moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)
@@ -217,7 +220,8 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
         warnings.append(f"welded {welded.count} vertices that differ from others by at most "
                         f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
                         "include the move")
-    return Checked(moments, solid.mesh, check_dict, warnings, solid.resolved)
+    return Checked(moments, solid.mesh if solid.source is None else solid.source, check_dict, warnings,
+                   solid.resolved)
 
 
 def _outward(moments, solid, warnings):
@@ -229,11 +233,13 @@ def _outward(moments, solid, warnings):
 
 
 def _closed(mesh, path, warnings):
-    """Check the mesh and resolve repeated faces; a surface open only along seams of noise is welded closed.
+    """Check the mesh is closed and merge repeated faces; a surface open only along seams of noise is welded closed.
 
     Returns the mesh, its checks and shell labels, the :class:`Welded` (None
-    when not welded), the repeated-face checks and the copies dropped.
+    when not welded), the repeated-face checks and how many times each face
+    counts (None: once each).
     """
+    from dataclasses import replace
     from .errors import OpenMeshError
     from .mesh.solid import without_repeated_faces
     from .mesh.surface import check_shells
@@ -248,13 +254,15 @@ def _closed(mesh, path, warnings):
     sizes = np.bincount(labels) if checks.shells > 1 else np.array([mesh.faces.shape[0]])
     if two_faces_an_edge and not np.any(sizes == 2):
         return mesh, checks, labels, welded, {"duplicate_shells": 0, "duplicate_faces": 0}, None
-    # Faces may repeat (a body written twice, a face and its reverse): resolve them, then check again.
-    reduced, repeated, repeat_warnings, copies = without_repeated_faces(mesh, path=path)
+    # Faces may repeat (a body written twice, a face and its reverse): one face each, counted as often as it repeats.
+    reduced, repeated, repeat_warnings, weights = without_repeated_faces(mesh, path=path)
     warnings += repeat_warnings
     if reduced is not mesh:
+        from .core import shells
         mesh = reduced
-        checks, labels, _ = check_shells(mesh, path=path)
-    return mesh, checks, labels, welded, repeated, copies
+        labels, n_shells = shells(mesh.faces, mesh.vertices.shape[0])
+        checks = replace(checks, shells=n_shells)
+    return mesh, checks, labels, welded, repeated, weights
 
 
 def _overlap(solid, moments):

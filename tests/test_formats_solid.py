@@ -161,5 +161,7 @@ def test_json_checks_say_what_was_resolved(runner, tmp_path):
     obj = json.loads(runner.invoke(main, ["props", "--format", "json", str(path)]).output)[0]
     assert obj["checks"]["overlap"] == pytest.approx(0.5 * 1.0 * 1.0)
     assert obj["checks"]["duplicate_shells"] == 0 and obj["checks"]["self_intersection"] == "none"
-    off = json.loads(runner.invoke(main, ["props", "--format", "json", "--no-self-intersection", str(path)]).output)
+    one = tmp_path / "one.stl"
+    write_binary(one, PART.triangles)
+    off = json.loads(runner.invoke(main, ["props", "--format", "json", "--no-self-intersection", str(one)]).output)
     assert off[0]["checks"]["self_intersection"] == "not checked"

@@ -144,12 +144,11 @@ def cell_options(f):
 
 
 def self_intersection_option(f):
-    """--self-intersection / --no-self-intersection (default: by face count)."""
-    from ..mesh.solid import SELF_INTERSECTION_UP_TO
+    """--self-intersection / --no-self-intersection (default: checked, at every size)."""
     return click.option("--self-intersection/--no-self-intersection", "self_intersection", default=None,
-                        help=f"Check (or not) that no shell crosses itself; by default meshes of up to "
-                             f"{SELF_INTERSECTION_UP_TO:,} faces are checked.  checks.self_intersection says "
-                             "none, found or not checked.")(f)
+                        help="Find faces that cross and integrate the region the surface encloses (the default, at "
+                             "every size); --no-self-intersection integrates a one-shell surface's signed volume as "
+                             "it is.  checks.self_intersection says none, resolved or not checked.")(f)
 
 
 def repair_option(f):

@@ -147,6 +147,26 @@ class ExactGeometry:
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),
                              int(shells_certified), int(vertices_certified))
 
+    def crossing_pairs(self, faces, *, threads=None):
+        """Every pair of faces that meet beyond the vertices and edges they share (by index).
+
+        Faces that share vertices meet only if they fold over each other
+        beyond what they share; faces of zero area take no part.
+
+        Returns
+        -------
+        ndarray, shape (p, 2), int64
+            Face index pairs, lower first, each once.
+        """
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        if threads is None:
+            threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        labels = np.zeros(faces.shape[0], dtype=np.int64)
+        active = np.ones(faces.shape[0], dtype=np.uint8)
+        found = _extension().pairs(self.vertices, faces, labels, active, 1, True, False, -1, int(threads))
+        pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
+        return np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()
+
     def certificates(self, faces, shells=None, n_shells=1, *, threads=None):
         """Which vertex stars and which shells are certified to meet themselves only where they share.
 

@@ -1,20 +1,23 @@
-"""Shells of a closed mesh: which bound ``{w > 0}``, which repeat or nest, which must be united.
+"""Shells of a closed mesh: which bound ``{w > 0}``, which nest, which faces meet and must be arranged.
 
 The policy is described in :mod:`massprops.mesh.solid`; this module carries it
-out.  On a one-shell mesh it does nothing but the (optional) self-intersection
-check; with several shells the work is proportional to the faces of shells
-whose bounding boxes meet.
+out.  One exact search lists every pair of faces that meet beyond what they
+share; with none, shells only nest (or are one), and an exact point-in-solid
+test per shell decides; with any, or with faces that count more than once,
+the arrangement (:mod:`massprops.mesh.arrangement`) finds the solid.
 """
 
 from __future__ import annotations
 
+import math
+from fractions import Fraction
+
 import numpy as np
 
 from ..errors import MeshGeometryError
-from .solid import (SELF_INTERSECTION_UP_TO, Solid, refuse_inside_out, refuse_self_intersection, shell_six_volumes,
-                    swept_volume)
+from .solid import Solid, shell_six_volumes, swept_volume
 
-__all__ = ["solid_of", "resolve_shells", "joined_groups"]
+__all__ = ["solid_of", "resolve_shells", "joined_groups", "with_exact"]
 
 
 def _geometry(vertices):
@@ -29,52 +32,52 @@ def _snapped(geometry, vertices, faces):
     return swept_volume(vertices, faces, geometry.moved_vertices, geometry.moved)
 
 
-def _self_checked(geometry, faces, labels, n_shells, path):
-    found = geometry.intersections(faces, labels, n_shells, within=True, between=False)
-    if found.self_found.any():
-        refuse_self_intersection(found.examples, path)
-
-
-def solid_of(mesh, labels, n_shells, *, path=None, repair=False, self_intersection=None, copies=None):
-    """The solid ``mesh`` bounds, for a mesh that passed :func:`massprops.mesh.surface.check_shells`.
+def solid_of(mesh, labels, n_shells, *, path=None, repair=False, self_intersection=None, weights=None):
+    """The solid ``mesh`` bounds, for a closed mesh (:func:`massprops.mesh.surface.check_shells`).
 
     Parameters
     ----------
     mesh : TriangleMesh
-        Closed, consistently wound, repeated faces already resolved.
+        Closed (counting ``weights``), repeated faces already merged.
     labels : ndarray, shape (m,), int
         Shell of each face; ``n_shells`` of them.
     repair : bool
         Turn shells wound inside out (inward, outside every other shell) outward instead of refusing.
     self_intersection : bool or None
-        Look for faces of one shell that cross; None: up to :data:`SELF_INTERSECTION_UP_TO` faces.
-    copies : ndarray, shape (k, 3), optional
-        Faces dropped as repeated copies (:func:`without_repeated_faces`): their volume counts in the overlap.
+        False: a one-shell mesh is integrated as it is, without looking for
+        faces that cross (its signed volume); otherwise (the default) every
+        mesh is searched, at every size.
+    weights : ndarray, shape (m,), int, optional
+        How many times each face counts (repeated faces), default once.
 
     Returns
     -------
     Solid
     """
-    faces = mesh.faces
-    check_self = (faces.shape[0] <= SELF_INTERSECTION_UP_TO) if self_intersection is None else bool(self_intersection)
-    return resolve_shells(mesh, labels, n_shells, check_self=check_self, path=path, repair=repair, copies=copies)
+    return resolve_shells(mesh, labels, n_shells, check_self=self_intersection is not False, path=path,
+                          repair=repair, weights=weights)
 
 
-def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=False, copies=None):
-    """See :func:`solid_of` (which chooses ``check_self``).
-
-    ``copies``: faces dropped as repeated copies (their volume counts in the overlap).
-    """
+def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=False, weights=None):
+    """See :func:`solid_of` (which chooses ``check_self``)."""
     vertices, faces = mesh.vertices, mesh.faces
-    checks = {"self_intersection": "not checked"}
-    if n_shells == 1 and (copies is None or copies.size == 0):
-        swept, frame = 0.0, None
-        if check_self:
-            geometry = _geometry(vertices)
-            _self_checked(geometry, faces, labels, 1, path)
-            checks["self_intersection"] = "none"
-            swept, frame = _snapped(geometry, vertices, faces), geometry.frame
-        return Solid(mesh, checks, swept_volume=swept, frame=frame)
+    repeated = weights is not None and bool(np.any(weights != 1))
+    if not check_self and n_shells == 1 and not repeated:
+        return Solid(mesh, {"self_intersection": "not checked"})
+    geometry = _geometry(vertices)
+    pairs = geometry.crossing_pairs(faces)
+    if pairs.size or repeated:
+        return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
+    if n_shells == 1:
+        return Solid(mesh, {"self_intersection": "none"}, swept_volume=_snapped(geometry, vertices, faces),
+                     frame=geometry.frame)
+    return _nested(mesh, labels, n_shells, geometry, path, repair)
+
+
+def _nested(mesh, labels, n_shells, geometry, path, repair):
+    """Shells that do not meet: each bounds ``{w > 0}``, or lies inside others wound alike and adds nothing."""
+    vertices, faces = mesh.vertices, mesh.faces
+    checks = {"self_intersection": "none"}
     six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
     zero = _zero_shells(vertices, faces, labels, six, bound)
     live = ~zero
@@ -91,92 +94,145 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     six = six * sign
     if flipped:
         faces = faces[:, ::-1].copy()
-    copy_six, copy_bound = 0.0, 0.0
-    if copies is not None and copies.size:
-        copy_six, copy_bound = (float(x[0]) for x in shell_six_volumes(
-            vertices, copies, np.zeros(copies.shape[0], dtype=np.int64), 1))
-        copy_six *= sign
-    geometry = _geometry(vertices)
     boxes = _shell_boxes(vertices, faces, labels, n_shells)
-    pairs = _box_pairs(boxes, np.flatnonzero(live))
-    active = np.zeros(n_shells, dtype=bool)
-    active[pairs.ravel()] = True
-    within = check_self
-    found = None
-    if pairs.size or within:
-        face_active = live[labels] & (active[labels] | within)
-        found = geometry.intersections(faces, labels, n_shells, within=within, between=bool(pairs.size),
-                                       active=face_active)
-        if within and found.self_found.any():
-            refuse_self_intersection(found.examples, path)
-    checks["self_intersection"] = "none" if within else "not checked"
-    units = joined_groups(np.flatnonzero(live), found.shell_pairs if found is not None else np.zeros((0, 2), int))
+    units = [[int(s)] for s in np.flatnonzero(live)]
     classes = _classify(geometry, vertices, faces, labels, units, boxes, six, path)
     inside_out = [u for u, (kind, w) in zip(units, classes) if kind < 0 and w == 0]
-    if inside_out:
-        if not repair:
-            refuse_inside_out(sum(len(u) for u in inside_out), int(live.sum()), path)
+    if inside_out and repair:
         # Turned outward, the shells change every winding number: classify again.
         faces = faces.copy()
         for unit in inside_out:
             chosen = np.isin(labels, unit)
             faces[chosen] = faces[chosen][:, ::-1]
             six[unit] = -six[unit]
-        warnings.append(f"turned {sum(len(u) for u in inside_out)} inside-out shells outward")
+        warnings.append(f"turned {len(inside_out)} inside-out shells outward")
         classes = _classify(geometry, vertices, faces, labels, units, boxes, six, path)
-    keep, unite = _decide(units, classes, path)
-    kept_faces = [faces[np.isin(labels, [s for u in keep for s in u])]]
-    new_vertices = np.zeros((0, 3))
-    swept = 0.0
-    union_six = []
-    if unite:
-        from .union import unite_shells
-        for unit in unite:
-            united = unite_shells(vertices, faces, labels, unit, offset=vertices.shape[0] + new_vertices.shape[0],
-                                  path=path)
-            kept_faces.append(united.faces)
-            new_vertices = np.vstack([new_vertices, united.new_vertices])
-            swept += united.swept_volume
-            union_six.append(6.0 * united.volume)
-    dropped = sum(len(u) for u in units if u not in keep and u not in unite)
+    keep, negative = _decide(units, classes)
+    if negative:
+        warnings.append(f"{negative} shell{'s are' if negative > 1 else ' is'} wound inward outside every body "
+                        "(a negative winding number, as inside a surface turned inside out): not part of the solid "
+                        "(repair turns separate bodies outward)")
+    dropped = len(units) - len(keep) - negative
+    resolved = []
     if dropped:
         checks["dropped_shells"] = dropped
-    resolved = []
-    if unite:
-        resolved.append(f"{sum(len(u) for u in unite)} shells meet")
-    if dropped:
         resolved.append(f"{dropped} shell{'s lie' if dropped > 1 else ' lies'} inside others with the same "
                         "orientation")
-    if copy_six:
-        resolved.append("shells repeat")
-    naive = (float(six[live].sum()) + copy_six, float(bound[live].sum()) + (copy_bound if copy_six else 0.0))
-    swept += _snapped(geometry, vertices, faces)
-    if not resolved and not zero.any() and not flipped and faces is mesh.faces:
+    naive = (float(six[live].sum()), float(bound[live].sum()))
+    swept = _snapped(geometry, vertices, faces)
+    if not resolved and not negative and not zero.any() and not flipped and faces is mesh.faces:
         return Solid(mesh, checks, tuple(warnings), swept, frame=geometry.frame)
-    checks_resolved = dict(resolved=tuple(resolved), naive_six=naive) if resolved else {}
-    all_faces = np.vstack(kept_faces).astype(np.int64)
-    out_vertices = np.vstack([vertices, new_vertices]) if new_vertices.size else vertices
-    return Solid(mesh.with_faces(all_faces, out_vertices), checks, tuple(warnings), swept,
-                 faces[zero[labels]], flipped, **checks_resolved,
-                 frame=geometry.frame if out_vertices is vertices else None)
+    kept = faces[np.isin(labels, [u[0] for u in keep])].astype(np.int64)
+    extra = dict(resolved=tuple(resolved), naive_six=naive) if resolved else {}
+    return Solid(mesh.with_faces(kept), checks, tuple(warnings), swept, faces[zero[labels]], flipped, **extra,
+                 frame=geometry.frame)
 
 
-def _decide(units, classes, path):
-    """Units that bound ``{w > 0}``: kept as they are (one shell) or to be united (several)."""
-    keep, unite = [], []
+def _decide(units, classes):
+    """Units that bound ``{w > 0}``, and how many lie where the winding number is negative."""
+    keep, negative = [], 0
     for unit, (kind, w) in zip(units, classes):
-        if kind == 0 or (kind < 0 and len(unit) > 1):
-            raise MeshGeometryError(f"shells {unit[0]} and {unit[1]} intersect and one is wound inward "
-                                    "(a cavity crossing a body's surface)", path=path,
-                                    fix="export the part as one closed body, cavities inside it")
-        if w < 0:
-            raise MeshGeometryError(f"shell {unit[0]} lies where shells wound inward leave a negative winding "
-                                    "number", path=path,
-                                    fix="orient every body outward and every cavity inward, inside its body "
-                                        "({repair} orients separate bodies)")
         if (kind > 0 and w == 0) or (kind < 0 and w == 1):
-            (unite if len(unit) > 1 else keep).append(unit)
-    return keep, unite
+            keep.append(unit)
+        elif w < 0 or (kind < 0 and w == 0):
+            negative += 1
+    return keep, negative
+
+
+def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
+    """The solid of a soup whose faces meet or repeat, through the exact arrangement."""
+    from .arrangement import arrange
+    vertices, faces = mesh.vertices, mesh.faces
+    m = faces.shape[0]
+    weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
+    six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
+                                   n_shells)
+    area = ~geometry.zero_area(faces)
+    index = np.cumsum(area) - 1
+    arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+    flipped = False
+    if _empty(arranged):
+        # Positive nowhere: a surface wound inward as a whole (the file's convention), turned as a whole.
+        flipped = True
+        faces = faces[:, ::-1].copy()
+        six = -six
+        arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+        if _empty(arranged):
+            raise MeshGeometryError("the solid has zero volume: the faces enclose nothing (every region they wind "
+                                    "around cancels)", path=path,
+                                    fix="check the export; a surface needs {shell=THICKNESS}")
+    within = labels[pairs[:, 0]] == labels[pairs[:, 1]]
+    resolved = []
+    crossing = int(within.sum())
+    if crossing:
+        resolved.append(f"the surface crosses itself ({crossing} pair{'s' if crossing != 1 else ''} of faces)")
+    if not within.all():
+        met = np.unique(labels[pairs[~within]])
+        inward = int(np.count_nonzero(six[met] < 0))
+        if inward:
+            resolved.append(f"{inward} cavit{'ies' if inward > 1 else 'y'} (a shell wound inward) "
+                            f"cross{'' if inward > 1 else 'es'} a body's surface")
+        resolved.append(f"{met.size} shells meet")
+    if np.any(weights != 1):
+        resolved.append("faces repeat")
+    warnings = []
+    flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound))
+    if flat:
+        warnings.append(f"{flat} shell{'s' if flat > 1 else ''} enclose{'s' if flat == 1 else ''} zero volume "
+                        "(flat, or folded onto itself): the region each encloses is empty or cancels")
+    if arranged.negative:
+        warnings.append("some regions are wound inward (a negative winding number, as inside a surface turned "
+                        "inside out): they are not part of the solid")
+    checks = {"self_intersection": "resolved" if crossing else "none"}
+    return Solid(mesh.with_faces(arranged.faces), checks, tuple(warnings), _snapped(geometry, vertices, faces),
+                 flipped=flipped, resolved=tuple(resolved), naive_six=(float(six.sum()), float(bound.sum())),
+                 frame=geometry.frame, exact=arranged.exact, exact_area2=arranged.area2,
+                 source=mesh.with_faces(faces))
+
+
+def _flat_shells(geometry, faces, labels, shells):
+    """How many of ``shells`` lie in one plane (exactly)."""
+    from ..core.intersect import orient3d_signs
+    zero_area = geometry.zero_area(faces)
+    flat = 0
+    for shell in shells.tolist():
+        mine = labels == shell
+        usable = np.flatnonzero(mine & ~zero_area)
+        corners = np.unique(faces[mine])
+        if usable.size == 0:
+            flat += 1
+            continue
+        a, b, c = geometry.vertices[faces[usable[0]]]
+        points = np.stack([np.broadcast_to(a, (corners.size, 3)), np.broadcast_to(b, (corners.size, 3)),
+                           np.broadcast_to(c, (corners.size, 3)), geometry.vertices[corners]], axis=1)
+        flat += int(not np.any(orient3d_signs(points)))
+    return flat
+
+
+def _empty(arranged):
+    return arranged.faces.size == 0 and arranged.exact[0] == 0
+
+
+def with_exact(moments, exact, area2):
+    """``moments`` plus exact sums ``(det, first, second)`` (Fractions, same frame), rounded once.
+
+    Each sum's bound grows by exactly the rounding of that one addition.
+    """
+    from dataclasses import replace
+
+    def added(value, extra):
+        total = Fraction(float(value)) + extra
+        rounded = float(total)
+        return rounded, math.nextafter(float(abs(Fraction(rounded) - total)), math.inf)
+
+    det_sum, det_round = added(moments.det_sum, exact[0])
+    first, first_round = zip(*(added(moments.first[k], exact[1][k]) for k in range(3)))
+    second = [[added(moments.second[k, j], exact[2][k][j]) for j in range(3)] for k in range(3)]
+    return replace(moments, det_sum=det_sum, det_error=moments.det_error + det_round,
+                   first=np.array(first), first_error=moments.first_error + max(first_round),
+                   second=np.array([[x[0] for x in row] for row in second]),
+                   second_error=moments.second_error + max(x[1] for row in second for x in row),
+                   area2=moments.area2 + area2)
 
 
 def _zero_shells(vertices, faces, labels, six, bound):
@@ -200,24 +256,6 @@ def _shell_boxes(vertices, faces, labels, n_shells):
         np.minimum.at(low, labels, corner)
         np.maximum.at(high, labels, corner)
     return np.stack([low, high], axis=1)
-
-
-def _box_pairs(boxes, shells):
-    """Pairs (p, 2) of the given shells whose closed boxes meet, lower shell first."""
-    if shells.size < 2:
-        return np.zeros((0, 2), dtype=np.int64)
-    order = shells[np.argsort(boxes[shells, 0, 0], kind="stable")]
-    starts = boxes[order, 0, 0]
-    pairs = []
-    for i, shell in enumerate(order[:-1]):
-        reach = np.searchsorted(starts, boxes[shell, 1, 0], side="right")
-        others = order[i + 1:reach]
-        if others.size == 0:
-            continue
-        meet = np.all((boxes[others, 0] <= boxes[shell, 1]) & (boxes[shell, 0] <= boxes[others, 1]), axis=1)
-        for other in others[meet]:
-            pairs.append((min(shell, other), max(shell, other)))
-    return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
 def joined_groups(shells, meeting):

@@ -1,31 +1,30 @@
 """What solid a closed mesh describes: the points of positive winding number.
 
-The SPEC ("What solid a mesh describes") fixes the semantics; this module
-decides (with :func:`massprops.mesh.shells.solid_of`, the entry point), for
-a mesh that passed :func:`massprops.mesh.surface.check_shells`, which faces
-bound that region, and says what it resolved on the way:
+The SPEC ("What solid a mesh describes") fixes the semantics: after exact
+welding a triangle soup is *closed* when every directed edge is balanced by
+its reverse, counting multiplicity, and its solid is ``{w > 0}``, whatever its
+faces do.  This module (with :func:`massprops.mesh.shells.solid_of`, the
+entry point) decides which faces bound that region, and says what it
+resolved on the way:
 
-* **Repeated faces** (the same three vertices after welding): copies with
-  the same orientation count once (a body written twice), a face and its
-  reverse cancel (a two-sided sheet encloses nothing).  Detected always,
-  even where the edges balance.
+* **Repeated faces** (the same three vertices after welding) become one
+  face counted as often as its net orientation says: copies with the same
+  orientation count as many times (a body written twice has ``w = 2``
+  inside), a face and its reverse cancel.  A soup whose every face comes
+  with its reverse (a two-sided export) encloses nothing; when one copy of
+  each pair is a closed surface, that surface's solid is integrated, with a
+  warning.
 * **Shells** (connected components): each one's signed volume with a bound;
   a shell whose volume is zero within its bound contributes nothing and is
   dropped, its moments added to the error bound (its orientation is never
   read from a rounded sign).
-* **Between shells** (only with more than one): shells whose boxes are
-  disjoint cannot overlap; for the others :mod:`massprops.core.intersect`
-  decides exactly whether any of their triangles meet.  Shells that meet are
-  united through manifold3d (:mod:`massprops.mesh.union`).  The rest nest:
-  an exact point-in-solid test gives the winding number just outside each
-  one, and a shell (or a united group) contributes exactly when it bounds
-  ``{w > 0}``: outward with ``w = 0`` outside, or inward (a cavity) with
-  ``w = 1`` outside.  Shells nested in the same orientation, or repeated,
-  are dropped; the volume counted more than once is reported as the overlap.
-* **Within a shell**: the same exact machinery finds faces that cross or
-  fold onto each other (faces sharing an edge or vertex are not an
-  intersection unless they do).  A self-intersecting shell is refused: the
-  region it bounds is not what its signed integral measures.
+* **Faces that meet** beyond the vertices and edges they share (crossing
+  themselves, crossing other shells, coinciding, touching) are found
+  exactly (:mod:`massprops.core.intersect`); then the exact arrangement
+  (:mod:`massprops.mesh.arrangement`) cuts them and keeps the pieces that
+  bound ``{w > 0}``.  Without such faces, shells only nest: an exact
+  point-in-solid test gives the winding number just outside each one, and a
+  shell contributes exactly when it bounds ``{w > 0}``.
 """
 
 from __future__ import annotations
@@ -39,14 +38,8 @@ from ..errors import MeshGeometryError, OpenMeshError, WindingError
 from ..core import edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 
-__all__ = ["Solid", "SELF_INTERSECTION_UP_TO", "without_unused_vertices", "without_repeated_faces",
+__all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
            "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
-
-# By default the self-intersection check runs on meshes up to this many faces: there it costs at most about
-# a fifth of `massprops props` end to end on a torus (no shell or star certified whole; about 330 ns a
-# face); at 300k faces a quarter, at 1.2M over 40% (benchmarks/bench_solid.py, docs/speed.md).
-# ``self_intersection=True`` forces it at any size.
-SELF_INTERSECTION_UP_TO = 200_000
 
 
 @dataclass(frozen=True)
@@ -80,6 +73,14 @@ class Solid:
     frame : Frame or None
         The integration frame of ``mesh.vertices`` (:func:`massprops.core.frame.frame_of`) when the
         checks already found it.
+    exact : tuple or None
+        Where faces were cut (:mod:`massprops.mesh.arrangement`): the exact sums
+        ``(det, first, second)`` of the cut pieces, in ``frame``'s scaled
+        coordinates, to add to the integrals of ``mesh``; ``exact_area2``
+        about twice their area.
+    source : TriangleMesh or None
+        The closed soup the solid was found from, when ``mesh`` alone is not
+        closed (cut pieces are in ``exact``).
     """
 
     mesh: object
@@ -91,6 +92,9 @@ class Solid:
     resolved: tuple = ()
     naive_six: tuple = (0.0, 0.0)
     frame: object = None
+    exact: tuple | None = None
+    exact_area2: float = 0.0
+    source: object = None
 
 
 def without_unused_vertices(mesh):
@@ -115,10 +119,11 @@ def without_unused_vertices(mesh):
 
 @dataclass(frozen=True)
 class _Repeats:
-    faces: np.ndarray            # faces kept, in input order
-    same: int                    # copies dropped that repeat a face in the same orientation
+    faces: np.ndarray            # faces kept, in input order, each turned to its group's net orientation
+    weights: np.ndarray          # how many times each kept face counts (its net multiplicity)
+    same: int                    # copies that repeat a face in the same orientation
     cancelled: int               # faces dropped in face-and-reverse pairs
-    copies: np.ndarray           # those same-orientation copies (their shells and volume are reported)
+    first: np.ndarray            # one face of every group, as first given (for two-sided exports)
 
 
 def _repeats(faces):
@@ -139,41 +144,40 @@ def _repeats(faces):
     leading = np.ones(matching.size, dtype=bool)
     leading[1:] = group[1:] != group[:-1]
     kept = np.sort(matching[leading])
-    extra = np.abs(net[labels[kept]]) - 1
-    return _Repeats(faces[kept], int(extra.sum()), int(np.sum(count - np.abs(net))),
-                    np.repeat(faces[kept], extra, axis=0))
+    weights = np.abs(net[labels[kept]])
+    return _Repeats(faces[kept], weights, int((weights - 1).sum()), int(np.sum(count - np.abs(net))),
+                    faces[np.sort(first)])
 
 
 def without_repeated_faces(mesh, *, path=None):
-    """Count faces written twice once, and cancel a face against its reverse.
+    """Count each face as often as its copies say: same-orientation copies add, a face and its reverse cancel.
 
     Returns
     -------
     mesh : TriangleMesh
+        One face per group of repeated faces (in its net orientation).
     checks : dict
-        ``duplicate_shells`` (shells written more than once) and ``duplicate_faces`` (copies dropped).
+        ``duplicate_shells`` (shells written more than once) and ``duplicate_faces`` (copies counted once).
     warnings : list of str
-    copies : ndarray, shape (k, 3)
-        The dropped copies (their volume is counted in the overlap).
+    weights : ndarray, shape (k,), int64, or None
+        How many times each face of ``mesh`` counts, when any counts more than once.
 
     Raises
     ------
-    OpenMeshError
-        Repeated faces that are not whole bodies or sheets (the rest of the
-        surface does not close without them).
+    MeshGeometryError
+        Every face cancels against its reverse and one copy of each does not
+        close: nothing is enclosed.
     """
     checks = {"duplicate_shells": 0, "duplicate_faces": 0}
     repeats = _repeats(mesh.faces)
     if repeats is None:
-        return mesh, checks, [], np.zeros((0, 3), dtype=np.int64)
-    # Only whole bodies or sheets written more than once are resolved: the surface as given must be
-    # closed (each edge as often each way), and stay closed without the copies.
-    if not all(edge_summary(f, mesh.vertices.shape[0]).balanced for f in (mesh.faces, repeats.faces)):
-        raise OpenMeshError(f"{repeats.same + repeats.cancelled} faces are duplicated (the same triangle twice)",
-                            path=path, fix="remove the duplicates, or pass {repair}")
+        return mesh, checks, [], None
+    if repeats.faces.shape[0] == 0:
+        return _one_side(mesh, repeats.first, path)
     warnings = []
     if repeats.same:
-        shells = count_shells(repeats.copies, mesh.vertices.shape[0], labels=False)[1]
+        copies = np.repeat(repeats.faces, repeats.weights - 1, axis=0)
+        shells = count_shells(copies, mesh.vertices.shape[0], labels=False)[1]
         checks.update(duplicate_shells=int(shells), duplicate_faces=repeats.same)
         warnings.append(f"{repeats.same} faces are written more than once with the same orientation "
                         f"({shells} shell{'s' if shells != 1 else ''} repeated): each point counted once "
@@ -181,10 +185,80 @@ def without_repeated_faces(mesh, *, path=None):
     if repeats.cancelled:
         warnings.append(f"{repeats.cancelled} faces cancel against their reverses (two-sided sheets enclose "
                         "no volume): left out")
-    if repeats.faces.shape[0] == 0:
-        raise MeshGeometryError("the solid has zero volume: every face is cancelled by its reverse",
-                                path=path, fix="a two-sided sheet needs {shell=THICKNESS}")
-    return mesh.with_faces(repeats.faces), checks, warnings, repeats.copies
+    weights = repeats.weights if repeats.same else None
+    return mesh.with_faces(repeats.faces), checks, warnings, weights
+
+
+def _one_side(mesh, faces, path):
+    """A two-sided export: one copy of each face, wound consistently and outward, if that closes."""
+    n = mesh.vertices.shape[0]
+    oriented = _consistently_wound(faces)
+    if oriented is None or not edge_summary(oriented, n).balanced:
+        raise MeshGeometryError("the solid has zero volume: every face is cancelled by its reverse, and one "
+                                "copy of each does not close a surface (a two-sided sheet)", path=path,
+                                fix="a two-sided sheet needs {shell=THICKNESS}")
+    labels, n_shells = count_shells(oriented, n)
+    six, _ = shell_six_volumes(mesh.vertices, oriented, labels, n_shells)
+    inward = six[labels] < 0
+    oriented[inward] = oriented[inward][:, ::-1]
+    checks = {"duplicate_shells": 0, "duplicate_faces": int(faces.shape[0])}
+    return mesh.with_faces(oriented), checks, [
+        f"every face is written twice, once each way (a two-sided export): integrated the solid that one copy of "
+        f"each of the {faces.shape[0]} faces encloses"], None
+
+
+def _consistently_wound(faces):
+    """``faces`` with some turned so that neighbours cross their common edge in opposite directions, or None.
+
+    Fails (None) where an edge is shared by more than two faces, or a surface cannot be wound consistently.
+    """
+    from collections import deque
+    faces = np.array(faces, dtype=np.int64)
+    m = faces.shape[0]
+    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    key = np.sort(directed, axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    key = key[order]
+    same = np.all(key[1:] == key[:-1], axis=1)
+    if np.any(same[1:] & same[:-1]):
+        return None
+    first = order[:-1][same]
+    second = order[1:][same]
+    neighbours = [[] for _ in range(m)]
+    for x, y in zip((first // 3).tolist(), (second // 3).tolist()):
+        neighbours[x].append(y)
+        neighbours[y].append(x)
+    flip = np.full(m, -1, dtype=np.int64)
+
+    def direction(f, a, b):
+        row = faces[f]
+        k = int(np.flatnonzero(row == a)[0])
+        return 1 if row[(k + 1) % 3] == b else -1
+
+    for start in range(m):
+        if flip[start] >= 0:
+            continue
+        flip[start] = 0
+        queue = deque([start])
+        while queue:
+            f = queue.popleft()
+            row = faces[f][::-1] if flip[f] else faces[f]
+            for g in neighbours[f]:
+                common = [v for v in row.tolist() if v in faces[g]]
+                if len(common) != 2:
+                    return None
+                k = [int(np.flatnonzero(row == v)[0]) for v in common]
+                a, b = (common[0], common[1]) if (k[0] + 1) % 3 == k[1] else (common[1], common[0])
+                wanted = 1 if direction(g, b, a) == 1 else 0    # g must run b -> a
+                state = 0 if wanted else 1
+                if flip[g] < 0:
+                    flip[g] = state
+                    queue.append(g)
+                elif flip[g] != state:
+                    return None
+    out = faces.copy()
+    out[flip == 1] = out[flip == 1][:, ::-1]
+    return out
 
 
 def shell_six_volumes(vertices, faces, labels, n_shells):
@@ -284,19 +358,12 @@ def overlap_warning(solid, moments):
     overlap = (naive - moments.det_sum * factor) / 6.0
     if abs(overlap) <= (naive_bound + moments.det_error * factor) / 6.0 * (1 + 1e-9):
         return 0.0, None
-    return overlap, (f"{', '.join(solid.resolved)}: the solid is their union, each point counted once "
-                     f"(volume counted more than once: {overlap:.6g}, checks.overlap)")
-
-
-def refuse_self_intersection(examples, path):
-    """Raise for a shell whose faces cross (one line naming two of them)."""
-    a, b = (int(v) for v in examples[0])
-    more = ", and others" if len(examples) > 1 else ""
-    raise MeshGeometryError(f"the surface intersects itself (faces {a} and {b} cross{more}): its signed volume is "
-                            "not the volume it encloses, and manifold3d cannot unite a shell with itself",
-                            path=path,
-                            fix="remove the crossing in a modeller (or unite the bodies it joins) and export again; "
-                                "{self_intersection=False} integrates the signed volume as it is")
+    if overlap > 0:
+        return overlap, (f"{', '.join(solid.resolved)}: the solid is their union, each point counted once "
+                         f"(volume counted more than once: {overlap:.6g}, checks.overlap)")
+    return overlap, (f"{', '.join(solid.resolved)}: the solid is the region the surface winds around positively, "
+                     f"each point counted once (the faces' signed volume leaves out {-overlap:.6g} of it, "
+                     "checks.overlap)")
 
 
 def refuse_inside_out(count, n_shells, path):

@@ -194,10 +194,15 @@ def _refuse_non_finite(vertices, faces, path):
 
 
 def _refuse_unbalanced(faces, edges, path):
-    duplicates = face_groups(faces).duplicates
-    if duplicates:
-        raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
-                            fix="remove the duplicates, or pass {repair}")
+    groups = face_groups(faces)
+    if groups.duplicates:
+        # A closed soup may repeat faces; this one does not close, and repeated faces may be why.
+        repeated = np.flatnonzero(np.bincount(groups.labels) > 1)[0]
+        first, second = np.flatnonzero(groups.labels == repeated)[:2]
+        unmatched = edges.odd or edges.unbalanced
+        raise OpenMeshError(f"mesh is open: face {second} is face {first} duplicated (the same triangle twice), and "
+                            f"{unmatched} edge{'s are' if unmatched != 1 else ' is'} not matched by a reverse edge",
+                            path=path, fix="remove the extra copies, or pass {repair}")
     if edges.odd:
         raise OpenMeshError(f"mesh is open: {edges.odd} boundary edges", path=path,
                             fix="close the holes, pass {repair}, or treat it as a sheet with {shell=THICKNESS}")

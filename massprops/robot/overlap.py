@@ -8,8 +8,8 @@ permutation, else widened by the rounding of the placement) are decided:
 * **Meshes and boxes** (a box primitive is exactly 12 triangles) of one
   density are placed in the link frame and go through the pipeline ``props``
   runs on a file (:func:`massprops.compute.checked_solid`: welding, shells,
-  exact intersection and nesting tests, manifold3d union with exactly
-  recomputed vertices).  Placing a vertex (``R (L x) + t`` in floats) moves
+  exact intersection and nesting tests, the exact arrangement of
+  :mod:`massprops.mesh.arrangement`).  Placing a vertex (``R (L x) + t`` in floats) moves
   it by at most ``δ = 9u (|R| |L| |x| + |t|)`` from its exact place: the
   swept-volume bound of :mod:`massprops.mesh.solid` covers it.  Then:
 

@@ -102,7 +102,7 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "OOOOnppni", &vo, &fo, &so, &ao, &n_shells, &within, &between, &max_examples,
                           &threads))
         return NULL;
-    if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31) || max_examples < 0) {
+    if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31) || max_examples < -1) {
         PyErr_SetString(PyExc_ValueError, "shell count or example count out of range");
         return NULL;
     }
@@ -282,7 +282,7 @@ static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
     {"pairs", py_pairs, METH_VARARGS,
-     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples, threads)\n"
+     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples (-1: every pair), threads)\n"
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
      "certified vertices)"},
     {"certificates", py_certificates, METH_VARARGS,

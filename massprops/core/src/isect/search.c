@@ -28,8 +28,8 @@
 #define FACE_BLOCK 4096
 
 typedef struct {
-    int64_t *examples;        /* 2 per example, up to max_examples */
-    int64_t n_examples;
+    int64_t *examples;        /* 2 per example, up to max_examples (all of them when it is negative) */
+    int64_t n_examples, cap_examples;
     int64_t *self_shells;     /* shells found crossing themselves in this block, each once */
     int64_t n_self, cap_self;
     int64_t *found;           /* 4 per meeting shell pair, each pair once in this block */
@@ -275,7 +275,7 @@ static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u
     const Grid *g = s->g;
     int64_t st = g->shell[t], su = g->shell[u];
     if (st == su) {
-        if (b->n_examples >= s->max_examples && block_has_self(b, st))
+        if (s->max_examples >= 0 && b->n_examples >= s->max_examples && block_has_self(b, st))
             return;
         b->tests++;
         if (!self_hit(g, t, u))
@@ -284,7 +284,12 @@ static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u
             b->failed = 1;
             return;
         }
-        if (b->n_examples < s->max_examples) {
+        if (s->max_examples < 0) {
+            int64_t x = grid_id(g, t), y = grid_id(g, u);
+            int64_t row[2] = {x < y ? x : y, x < y ? y : x};
+            if (append(&b->examples, &b->n_examples, &b->cap_examples, 2, row) < 0)
+                b->failed = 1;
+        } else if (b->n_examples < s->max_examples) {
             int64_t x = grid_id(g, t), y = grid_id(g, u);
             b->examples[2 * b->n_examples] = x < y ? x : y;
             b->examples[2 * b->n_examples + 1] = x < y ? y : x;
@@ -615,10 +620,12 @@ static void search_block(void *ctx, int worker, int64_t block)
     const Search *s = ctx;
     Block *b = &s->blocks[block];
     Seen *seen = &s->seen[worker];
-    b->examples = malloc(sizeof(int64_t) * 2 * (s->max_examples ? s->max_examples : 1));
-    if (!b->examples) {
-        b->failed = 1;
-        return;
+    if (s->max_examples >= 0) {
+        b->examples = malloc(sizeof(int64_t) * 2 * (s->max_examples ? s->max_examples : 1));
+        if (!b->examples) {
+            b->failed = 1;
+            return;
+        }
     }
     if (block < s->n_entry_blocks)
         search_cells(s, b, seen, &s->scratch[worker], s->entry_cut[block], s->entry_cut[block + 1]);
@@ -645,7 +652,8 @@ static int merge(const Search *s, int64_t n_blocks, Found *out)
         n_examples += s->blocks[k].n_examples;
         n_found += s->blocks[k].n_found;
     }
-    n_examples = n_examples < s->max_examples ? n_examples : s->max_examples;
+    if (s->max_examples >= 0)
+        n_examples = n_examples < s->max_examples ? n_examples : s->max_examples;
     out->self_found = calloc(s->n_shells, 1);
     out->examples = malloc(sizeof(int64_t) * 2 * (n_examples ? n_examples : 1));
     out->found = malloc(sizeof(int64_t) * 4 * (n_found ? n_found : 1));
