@@ -52,6 +52,26 @@ def asset(path):
     return unit, up
 
 
+def _unit_factor(meter, path):
+    """``<unit meter=...>`` as an exact positive Fraction within 1e-300 to 1e300."""
+    text = meter.strip()
+    try:
+        # A decimal is checked as a float first: Fraction("1e999999999") builds a billion-digit integer.
+        value = float(text)
+    except ValueError:
+        try:
+            value = float(Fraction(text))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            raise MeshFormatError(f"cannot read <unit meter={meter!r}>", path=path,
+                                  fix="give the unit as a number of metres") from None
+    if value != value or not value > 0:
+        raise MeshFormatError(f"<unit meter={meter!r}> is not a positive number", path=path, fix="fix the unit")
+    if not 1e-300 < value < 1e300:
+        raise MeshFormatError(f"<unit meter={meter!r}> is outside the range massprops can scale by (1e-300 to "
+                              "1e300 metres)", path=path, fix="give the unit in metres as a number within that range")
+    return Fraction(text)
+
+
 def read(path):
     try:
         import collada  # noqa: F401  (trimesh's COLLADA loader needs it)
@@ -70,16 +90,11 @@ def read(path):
         notes.append(f"applied the file's <up_axis>{up}</up_axis>: turned its up axis to +z")
     unit = None
     if meter is not None:
-        try:
-            factor = Fraction(meter.strip())
-        except ValueError:
-            raise MeshFormatError(f"cannot read <unit meter={meter!r}>", path=path,
-                                  fix="give the unit as a number of metres") from None
-        if not factor > 0:
-            raise MeshFormatError(f"<unit meter={meter!r}> is not positive", path=path, fix="fix the unit")
+        factor = _unit_factor(meter, path)
         unit = _UNITS.get(factor)
         if unit is None:
-            vertices = vertices * float(factor)
+            with np.errstate(over="ignore", under="ignore"):
+                vertices = vertices * float(factor)
             unit = "m"
             notes.append(f"applied the file's <unit meter=\"{meter}\">: coordinates scaled to metres")
         else:

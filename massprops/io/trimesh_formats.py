@@ -152,7 +152,25 @@ def flattened(loaded, path):
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise MeshFormatError("the file holds no triangles", path=path, fix="export the part as a closed surface")
-    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    return _checked_arrays(loaded.vertices, faces, path)
+
+
+def _checked_arrays(vertices, faces, path, what="the mesh"):
+    """Vertices (n, 3) float64 and faces (m, 3) int64 of what a reader returned, or a MeshFormatError."""
+    try:
+        vertices = np.asarray(vertices, dtype=np.float64)
+        faces = np.asarray(faces)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise MeshFormatError(f"{what} is not a triangle mesh ({exc})", path=path,
+                              fix="check that the file is a complete mesh of this format") from None
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise MeshFormatError(f"{what}'s vertex positions have shape {vertices.shape}, not (vertices, 3) "
+                              "(a glTF POSITION accessor must be a VEC3)", path=path,
+                              fix="export positions as three coordinates per vertex")
+    if faces.ndim != 2 or faces.shape[1] != 3 or (faces.size and faces.dtype.kind not in "iu"):
+        raise MeshFormatError(f"{what}'s faces have shape {faces.shape}, not (faces, 3) vertex indices", path=path,
+                              fix="export the part as triangles")
+    return vertices, faces.astype(np.int64)
 
 
 def _declared_unit(loaded, path):
