@@ -1,4 +1,4 @@
-"""PLY, OFF, GLB/glTF and 3MF surfaces through trimesh, imported only when such a file is read.
+"""PLY, OFF and GLB/glTF surfaces through trimesh, imported only when such a file is read.
 
 trimesh is asked not to process the mesh (no merging of close vertices, no
 removal of faces), so coordinates arrive as stored; a scene is flattened with
@@ -7,8 +7,7 @@ a PLY header's element counts are checked against the file's size first, so a
 header that lies is named as such, and the files a glTF names must be regular
 files as long as it says.  Vertices are then welded by exact coordinates, as
 for every format, so triangle soups (a PLY of separate triangles, a GLB with
-per-face normals) are closed.  A 3MF file's ``unit`` becomes the mesh's
-declared length unit.
+per-face normals) are closed.  (3MF is read by :mod:`.threemf`.)
 """
 
 from __future__ import annotations
@@ -24,9 +23,6 @@ from .inputs import check_input, file_size_text
 from .registry import register_format
 
 __all__ = ["load_trimesh", "read", "flattened", "check_ply_header", "check_gltf_resources"]
-
-# 3MF's units (the specification's names) as massprops' unit names.
-_3MF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
               "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
@@ -173,23 +169,10 @@ def _checked_arrays(vertices, faces, path, what="the mesh"):
     return vertices, faces.astype(np.int64)
 
 
-def _declared_unit(loaded, path):
-    """The 3MF ``unit`` (default millimeter) as a massprops unit name, and a note; else (None, None)."""
-    if os.path.splitext(path)[1].lower() != ".3mf":
-        return None, None
-    name = str((getattr(loaded, "metadata", None) or {}).get("units") or "millimeter").lower()
-    unit = _3MF_UNITS.get(name)
-    if unit is None:
-        raise MeshFormatError(f"unknown 3MF unit {name!r}", path=path, fix=f"use one of {', '.join(_3MF_UNITS)}")
-    return unit, f"the file declares its length unit: {name}"
-
-
 def read(path):
-    loaded = load_trimesh(path)
-    unit, note = _declared_unit(loaded, path)
-    vertices, faces = flattened(loaded, path)
-    return TriangleMesh.from_indexed(vertices, faces, notes=(note,) if note else (), unit=unit)
+    vertices, faces = flattened(load_trimesh(path), path)
+    return TriangleMesh.from_indexed(vertices, faces)
 
 
-register_format("trimesh", [".ply", ".glb", ".gltf", ".3mf"], read)
+register_format("trimesh", [".ply", ".glb", ".gltf"], read)
 register_format("trimesh", [".off"], read, text=True)
