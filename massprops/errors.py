@@ -63,15 +63,22 @@ def _escaped(match):
     return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
 
 
+_LINE_BREAK = re.compile("[ \t]*[\n\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]+[ \t]*")
+
+
 def printable(text):
     """``text`` safe to print on one line of a terminal, CSV cell or log.
 
-    Every control character (and invisible reordering mark) is shown as an
-    escape, ``\\x1b``, ``\\x0b``, ``\\u202e``; everything else, backslashes
-    included, is kept, so applying it twice changes nothing more.
+    Line breaks of every kind (with the blanks around them) become one space,
+    so the text stays one line; every other control character (and invisible
+    reordering mark) is shown as an escape, ``\\x1b``, ``\\x07``,
+    ``\\u202e``.  Everything else, backslashes included, is kept, so
+    applying it twice changes nothing more.
     """
     text = str(text)
-    return _UNPRINTABLE.sub(_escaped, text) if _UNPRINTABLE.search(text) else text
+    if not _UNPRINTABLE.search(text):
+        return text
+    return _UNPRINTABLE.sub(_escaped, _LINE_BREAK.sub(" ", text))
 
 
 def option(name, value=None):

@@ -180,7 +180,7 @@ def test_file_content_in_messages_is_escaped(runner, tmp_path):
         result = runner.invoke(main, args)
         text = result.stdout + result.stderr
         assert "\x1b" not in text and "\x07" not in text and "\x0b" not in text and "\x85" not in text
-        assert "\\x1b]0;PWNED\\x07" in text
+        assert "\\x1b]0;PWNED\\x07 0 0" in text                   # ESC and BEL shown; VT and NEL break no line
         assert len([line for line in result.stderr.splitlines() if line]) <= 1
 
 

@@ -247,9 +247,6 @@ def read_graph(path):
     except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError) as exc:
         raise MeshFormatError(f"not a 3MF archive ({exc})", path=path, fix=_FIX) from None
     with archive:
-        root = _root_part(archive)
-        if root is None:
-            raise MeshFormatError("the archive holds no 3D/3dmodel.model", path=path, fix=_FIX)
         parsed = {}
 
         def parts(name):
@@ -261,6 +258,9 @@ def read_graph(path):
             return parsed[name]
 
         try:
+            root = _root_part(archive)
+            if root is None:
+                raise MeshFormatError("the archive holds no 3D/3dmodel.model", path=path, fix=_FIX)
             top = parts(root)
             unit = top.unit or "millimeter"
             walk = _Walk(lambda name: parts(name), path)
