@@ -29,6 +29,7 @@ __all__ = [
     "ArgumentTypeError",
     "option",
     "render_options",
+    "printable",
 ]
 
 # Options that are both keyword arguments of the library and command-line options.
@@ -46,6 +47,38 @@ _SWITCHES = frozenset({"self_intersection"})
 OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES | frozenset(_RENAMED)
 _PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9|:*=-]+))?\}")
 STYLES = ("python", "cli")
+
+
+# Characters a terminal acts on (C0 and C1 controls: ESC starts escape sequences, BEL rings, VT and FF and
+# NEL and the Unicode separators break lines), invisible reordering marks, and lone surrogates (bytes of a
+# file that are not UTF-8) which no terminal encoding can print.
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ufeff"
+                          "\ud800-\udfff]")
+
+
+def _escaped(match):
+    code = ord(match.group(0))
+    if 0xDC80 <= code <= 0xDCFF:                # a byte decoded with surrogateescape
+        return f"\\x{code - 0xDC00:02x}"
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+_LINE_BREAK = re.compile("[ \t]*[\n\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]+[ \t]*")
+
+
+def printable(text):
+    """``text`` safe to print on one line of a terminal, CSV cell or log.
+
+    Line breaks of every kind (with the blanks around them) become one space,
+    so the text stays one line; every other control character (and invisible
+    reordering mark) is shown as an escape, ``\\x1b``, ``\\x07``,
+    ``\\u202e``.  Everything else, backslashes included, is kept, so
+    applying it twice changes nothing more.
+    """
+    text = str(text)
+    if not _UNPRINTABLE.search(text):
+        return text
+    return _UNPRINTABLE.sub(_escaped, _LINE_BREAK.sub(" ", text))
 
 
 def option(name, value=None):
@@ -92,10 +125,11 @@ class MassPropsError(Exception):
     """
 
     def __init__(self, problem, *, path=None, fix=None):
-        self.problem = problem
+        # What a message quotes from a file (a line, a name, an attribute) must not act on the terminal.
+        self.problem = printable(problem)
         self.path = None if path is None else str(path)
-        self.fix = fix
-        super().__init__(problem)
+        self.fix = None if fix is None else printable(fix)
+        super().__init__(self.problem)
 
     def render(self, style="python", *, with_path=True):
         """The one line: ``PATH: problem — fix``, options spelled for ``style`` (``"python"`` or ``"cli"``)."""

@@ -12,6 +12,8 @@ import re
 
 import numpy as np
 
+from .errors import printable
+
 __all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_text", "significant", "vector_text",
            "display_bounds", "about_bound", "csv_row", "CSV_COLUMNS", "to_csv"]
 
@@ -104,7 +106,7 @@ def _result_dict(result, omega, about, only, extra):
                     if _ERROR_OF.get(key, key) in out or key in ("volume", "mass", "input_resolution")}
     out["pose"] = {"rotation": p.pose.rotation, "translation": p.pose.translation}
     out["checks"] = result.checks
-    out["warnings"] = list(result.warnings)
+    out["warnings"] = [printable(w) for w in result.warnings]      # they may quote the file
     out["elapsed_s"] = result.elapsed_s
     if extra:
         out.update(extra)

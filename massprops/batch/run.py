@@ -27,7 +27,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from ..errors import MassPropsError, MeshReadError, OptionError, render_options
+from ..errors import MassPropsError, MeshReadError, OptionError, printable, render_options
 from .inputs import expand_inputs
 from .report import ReportWriter, file_stat, is_error, plan, record, state_path
 from .workers import TIMED_OUT, WORKER_FAILED, run_workers
@@ -117,7 +117,7 @@ def default_jobs():
 
 def _one_line(text):
     # every kind of line break goes: a report record is one line, whatever a message quotes from a file
-    return " ".join(filter(None, (part.strip() for part in text.splitlines())))
+    return printable(" ".join(filter(None, (part.strip() for part in text.splitlines()))))
 
 
 def error_message(exc, style="python"):

@@ -19,7 +19,7 @@ import sys
 
 import click
 
-from ..errors import MassPropsError
+from ..errors import MassPropsError, printable
 
 UNIT_CHOICES = ["m", "cm", "mm", "um", "in", "ft"]
 
@@ -243,7 +243,7 @@ def guarded(fn, *args, path=None, **kwargs):
         if os.environ.get("MASSPROPS_DEBUG"):
             raise
         where = f"{path}: " if path else ""
-        echo_error(f"{where}internal error ({type(exc).__name__}: {exc}) — "
+        echo_error(f"{where}internal error ({type(exc).__name__}: {printable(exc)}) — "
                    "please report it; rerun with MASSPROPS_DEBUG=1 for details")
     return None
 

@@ -36,7 +36,7 @@ def _reference_coordinate(low, high):
     if not extent > 0:
         return low
     k = _ceil_log2(extent)                               # 2**(k-1) < extent ≤ 2**k
-    big = math.ldexp(1.0, k)
+    big = math.ldexp(1.0, k) if k < 1024 else math.inf  # an extent over 2**1023: the box holds the origin's side
     if low >= big or high <= -big:
         # Every |x| ≥ 2**k, so x is a multiple of 2**(k-52); the shift is a
         # multiple of 2**(k-8); the difference, a multiple of 2**(k-52) below
@@ -55,7 +55,10 @@ def _short_centre(low, high):
     if not extent > 0 or not math.isfinite(extent):
         return low
     k = _ceil_log2(extent)
-    return math.ldexp(round(math.ldexp(low * 0.5 + high * 0.5, 8 - k)), k - 8)
+    try:
+        return math.ldexp(round(math.ldexp(low * 0.5 + high * 0.5, 8 - k)), k - 8)
+    except OverflowError:                                # rounded up past the largest double
+        return low
 
 
 class Frame(NamedTuple):

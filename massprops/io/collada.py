@@ -52,6 +52,84 @@ def asset(path):
     return unit, up
 
 
+def _unit_factor(meter, path):
+    """``<unit meter=...>`` as an exact positive Fraction within 1e-300 to 1e300."""
+    text = meter.strip()
+    try:
+        # A decimal is checked as a float first: Fraction("1e999999999") builds a billion-digit integer.
+        value = float(text)
+    except ValueError:
+        try:
+            value = float(Fraction(text))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            raise MeshFormatError(f"cannot read <unit meter={meter!r}>", path=path,
+                                  fix="give the unit as a number of metres") from None
+    if value != value or not value > 0:
+        raise MeshFormatError(f"<unit meter={meter!r}> is not a positive number", path=path, fix="fix the unit")
+    if not 1e-300 < value < 1e300:
+        raise MeshFormatError(f"<unit meter={meter!r}> is outside the range massprops can scale by (1e-300 to "
+                              "1e300 metres)", path=path, fix="give the unit in metres as a number within that range")
+    return Fraction(text)
+
+
+MAX_INSTANCES = 100_000       # geometries placed, counting every path through <instance_node>
+MAX_DEPTH = 100               # levels of nodes and instanced nodes
+
+
+def check_instances(path):
+    """Refuse an instance graph with a cycle, deeper than MAX_DEPTH, or placing more than MAX_INSTANCES geometries.
+
+    Counted per node once, before trimesh expands anything: a 1 kB file whose
+    library nodes each instance the previous twice places 2**30 geometries.
+    """
+    from lxml import etree
+    try:
+        root = etree.parse(path, etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True,
+                                                 recover=True)).getroot()
+    except (etree.XMLSyntaxError, OSError):
+        return                                    # trimesh says what is wrong
+    if root is None:
+        return
+    nodes = {node.get("id"): node for node in root.iter("{*}node") if node.get("id")}
+    counted, on_path = {}, set()
+
+    def count(node, depth):
+        if depth > MAX_DEPTH:
+            raise MeshFormatError(f"the nodes are nested more than {MAX_DEPTH} levels deep (counting "
+                                  "<instance_node>)", path=path, fix="flatten the scene on export")
+        if id(node) in counted:
+            return counted[id(node)]
+        if id(node) in on_path:
+            raise MeshFormatError(f"node {node.get('id')!r} instances itself (a cycle of <instance_node>)",
+                                  path=path, fix="remove the <instance_node> that closes the cycle")
+        on_path.add(id(node))
+        total = 0
+        for child in node:
+            tag = etree.QName(child).localname if isinstance(child.tag, str) else ""
+            if tag in ("instance_geometry", "instance_controller"):
+                total += 1
+            elif tag == "node":
+                total += count(child, depth + 1)
+            elif tag == "instance_node":
+                target = nodes.get((child.get("url") or "").lstrip("#"))
+                if target is not None:
+                    total += count(target, depth + 1)
+            if total > MAX_INSTANCES:
+                raise MeshFormatError(f"the scene places more than {MAX_INSTANCES} geometries through "
+                                      "<instance_node>", path=path, fix="export fewer instances (or a merged mesh)")
+        on_path.discard(id(node))
+        counted[id(node)] = total
+        return total
+
+    total = 0
+    for scene in root.iter("{*}visual_scene"):
+        total += sum(count(node, 1) for node in scene if isinstance(node.tag, str) and
+                     etree.QName(node).localname == "node")
+        if total > MAX_INSTANCES:
+            raise MeshFormatError(f"the scene places more than {MAX_INSTANCES} geometries through <instance_node>",
+                                  path=path, fix="export fewer instances (or a merged mesh)")
+
+
 def read(path):
     try:
         import collada  # noqa: F401  (trimesh's COLLADA loader needs it)
@@ -61,6 +139,7 @@ def read(path):
     from .trimesh_formats import flattened, load_trimesh
 
     meter, up = asset(path)
+    check_instances(path)
     vertices, faces = flattened(load_trimesh(path, file_type="dae"), path)
     notes = []
     if up and up != "Z_UP":
@@ -70,16 +149,11 @@ def read(path):
         notes.append(f"applied the file's <up_axis>{up}</up_axis>: turned its up axis to +z")
     unit = None
     if meter is not None:
-        try:
-            factor = Fraction(meter.strip())
-        except ValueError:
-            raise MeshFormatError(f"cannot read <unit meter={meter!r}>", path=path,
-                                  fix="give the unit as a number of metres") from None
-        if not factor > 0:
-            raise MeshFormatError(f"<unit meter={meter!r}> is not positive", path=path, fix="fix the unit")
+        factor = _unit_factor(meter, path)
         unit = _UNITS.get(factor)
         if unit is None:
-            vertices = vertices * float(factor)
+            with np.errstate(over="ignore", under="ignore"):
+                vertices = vertices * float(factor)
             unit = "m"
             notes.append(f"applied the file's <unit meter=\"{meter}\">: coordinates scaled to metres")
         else:

@@ -4,9 +4,10 @@
   block forever, ``/dev/zero`` would be read until memory runs out, a socket
   cannot be read at all.  Symbolic links are followed, so a link to a device
   is refused as the device.
-* A **text format has no holes**: a sparse file's holes read as NUL bytes,
-  which no text mesh contains; it is an incomplete copy or download, refused
-  before gigabytes of zeros are parsed.
+* A **mesh file has no holes**: a sparse file's holes read as NUL bytes,
+  which no text mesh contains and no exporter writes by seeking; it is an
+  incomplete copy or download, refused before gigabytes of zeros are parsed
+  (binary formats too: PLY, GLB, MuJoCo .msh and VTU would read it whole).
 * An **archive** (a zip container such as 3MF) may unpack to at most
   :data:`UNPACK_RATIO` times its own size, or :data:`UNPACK_FLOOR` bytes if
   that is more, unless the caller sets ``max_unpacked`` (bytes).  The sizes
@@ -68,7 +69,7 @@ def check_input(path, *, what="file", allow_dir=False, dir_fix=None):
 
 
 def check_no_holes(path, info):
-    """Refuse a sparse text file: its holes read as NUL bytes.  ``info`` is its ``os.stat_result``."""
+    """Refuse a sparse file: its holes read as NUL bytes.  ``info`` is its ``os.stat_result``."""
     blocks = getattr(info, "st_blocks", None)
     seek_hole = getattr(os, "SEEK_HOLE", None)
     if blocks is None or seek_hole is None or blocks * 512 >= info.st_size:

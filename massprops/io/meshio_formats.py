@@ -9,6 +9,8 @@ nodes (meshio lists corners first), and a warning says so.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..errors import MeshFormatError
@@ -28,6 +30,10 @@ _SURFACE = {"triangle": 3, "quad": 4}
 # second; VTK (meshio's order) the other way round.
 _MIRRORED_WEDGE = {".msh", ".inp"}
 _TAG_ARRAYS = ("gmsh:physical", "cell_tags", "medit:ref")
+_VTK_VOXEL, _VTK_HEXAHEDRON = 11, 12
+_VOXEL_TO_HEXAHEDRON = np.array([0, 1, 3, 2, 4, 5, 7, 6])
+_VTK_NAMES = {2: "poly-vertex", 4: "poly-line", 6: "triangle strip", 11: "voxel"}
+_VTK_CELLS_SEEN = threading.Lock()        # the hook on meshio's VTK reader is one at a time
 
 
 def _base_type(cell_type, table):
@@ -39,11 +45,76 @@ def _base_type(cell_type, table):
 
 
 def _load(path):
+    """``(meshio.Mesh, {VTK type: cells meshio left out})``."""
     try:
         import meshio
     except ImportError:  # pragma: no cover - meshio is a core dependency
         raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
-    return third_party(path, "meshio", meshio.read, path)
+    with _VTK_CELLS_SEEN:
+        hooked, dropped = _hook_vtk_cells()
+        try:
+            return third_party(path, "meshio", meshio.read, path), dropped
+        finally:
+            for module, original in hooked:
+                module.vtk_cells_from_data = original
+
+
+def _hook_vtk_cells():
+    """Watch the VTK cell types meshio reads (XML and legacy 5.1 VTK): it drops the types it does not know.
+
+    Voxels, which it does not know, become hexahedra (corners reordered);
+    any other unknown type is counted, so the file is refused instead of
+    integrated without those cells.  Returns ``([(module, original)], dropped)``.
+    """
+    import importlib
+    dropped = {}
+    hooked = []
+    for name in ("meshio.vtu._vtu", "meshio.vtk._vtk_51"):
+        try:
+            module = importlib.import_module(name)
+            from meshio._vtk_common import vtk_to_meshio_type
+        except ImportError:  # pragma: no cover - another meshio layout
+            continue
+        original = getattr(module, "vtk_cells_from_data", None)
+        if original is None:  # pragma: no cover
+            continue
+
+        def cells_from_data(connectivity, offsets, types, cell_data_raw, original=original,
+                            known=vtk_to_meshio_type):
+            types = np.asarray(types)
+            connectivity = _voxels_as_hexahedra(np.asarray(connectivity), np.asarray(offsets), types)
+            types = np.where(types == _VTK_VOXEL, _VTK_HEXAHEDRON, types)
+            unknown = ~np.isin(types, np.fromiter(known, dtype=np.int64))
+            for kind, count in zip(*np.unique(types[unknown], return_counts=True)):
+                dropped[int(kind)] = dropped.get(int(kind), 0) + int(count)
+            return original(connectivity, offsets, types, cell_data_raw)
+
+        module.vtk_cells_from_data = cells_from_data
+        hooked.append((module, original))
+    return hooked, dropped
+
+
+def _voxels_as_hexahedra(connectivity, offsets, types):
+    """``connectivity`` with each voxel's corners (x fastest, then y, then z) in hexahedron order."""
+    voxels = np.flatnonzero(types == _VTK_VOXEL)
+    if voxels.size == 0 or offsets.shape != types.shape:
+        return connectivity
+    ends = offsets.astype(np.int64)
+    starts = np.concatenate([[0], ends[:-1]])[voxels]
+    if np.any(ends[voxels] - starts != 8) or np.any(starts < 0) or np.any(ends[voxels] > connectivity.size):
+        return connectivity                       # not 8 nodes each: meshio refuses the offsets itself
+    connectivity = connectivity.copy()
+    corners = starts[:, None] + np.arange(8)
+    connectivity[corners] = connectivity[starts[:, None] + _VOXEL_TO_HEXAHEDRON]
+    return connectivity
+
+
+def _refuse_dropped(dropped, path):
+    if dropped:
+        said = ", ".join(f"{count} of VTK type {kind} ({_VTK_NAMES.get(kind, 'not a VTK cell type')})"
+                         for kind, count in sorted(dropped.items()))
+        raise MeshFormatError(f"the file holds cells massprops does not integrate: {said}", path=path,
+                              fix="export tetrahedra, hexahedra, voxels, wedges or pyramids")
 
 
 def _block_cells(block, corners, path):
@@ -68,7 +139,8 @@ def read(path):
 
     from ..mesh.volume import VolumeMesh
 
-    mesh = _load(path)
+    mesh, dropped = _load(path)
+    _refuse_dropped(dropped, path)
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] not in (2, 3):
         raise MeshFormatError(f"the nodes have shape {points.shape}, not (nodes, 3)", path=path,
@@ -80,8 +152,9 @@ def read(path):
         base = _base_type(block.type, _VOLUME)
         if base is None:
             if block.dim == 3:
-                raise MeshFormatError(f"cells of type {block.type!r} are not supported", path=path,
-                                      fix="export tetrahedra, hexahedra, wedges or pyramids")
+                raise MeshFormatError(f"the file holds cells massprops does not integrate: {len(block.data)} of "
+                                      f"type {block.type!r}", path=path,
+                                      fix="export tetrahedra, hexahedra, voxels, wedges or pyramids")
             continue
         cells = _block_cells(block, _VOLUME[base], path)
         if cells is None:

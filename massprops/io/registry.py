@@ -86,8 +86,8 @@ def check_mesh_file(path, *, max_unpacked=None):
     """
     info = check_input(path, what="mesh file", dir_fix="name the mesh files, or use `massprops batch DIR`")
     found = reader_for(path)
-    if _extension(path) in _TEXT:
-        check_no_holes(path, info)
+    # Any format: a mesh file is written, never seeked past (a 10 GB file of holes would be read whole).
+    check_no_holes(path, info)
     check_archive(path, info, max_unpacked)
     return found
 

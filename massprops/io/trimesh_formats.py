@@ -1,4 +1,4 @@
-"""PLY, OFF, GLB/glTF and 3MF surfaces through trimesh, imported only when such a file is read.
+"""PLY, OFF and GLB/glTF surfaces through trimesh, imported only when such a file is read.
 
 trimesh is asked not to process the mesh (no merging of close vertices, no
 removal of faces), so coordinates arrive as stored; a scene is flattened with
@@ -7,8 +7,7 @@ a PLY header's element counts are checked against the file's size first, so a
 header that lies is named as such, and the files a glTF names must be regular
 files as long as it says.  Vertices are then welded by exact coordinates, as
 for every format, so triangle soups (a PLY of separate triangles, a GLB with
-per-face normals) are closed.  A 3MF file's ``unit`` becomes the mesh's
-declared length unit.
+per-face normals) are closed.  (3MF is read by :mod:`.threemf`.)
 """
 
 from __future__ import annotations
@@ -24,9 +23,6 @@ from .inputs import check_input, file_size_text
 from .registry import register_format
 
 __all__ = ["load_trimesh", "read", "flattened", "check_ply_header", "check_gltf_resources"]
-
-# 3MF's units (the specification's names) as massprops' unit names.
-_3MF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
               "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
@@ -152,26 +148,31 @@ def flattened(loaded, path):
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise MeshFormatError("the file holds no triangles", path=path, fix="export the part as a closed surface")
-    return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    return _checked_arrays(loaded.vertices, faces, path)
 
 
-def _declared_unit(loaded, path):
-    """The 3MF ``unit`` (default millimeter) as a massprops unit name, and a note; else (None, None)."""
-    if os.path.splitext(path)[1].lower() != ".3mf":
-        return None, None
-    name = str((getattr(loaded, "metadata", None) or {}).get("units") or "millimeter").lower()
-    unit = _3MF_UNITS.get(name)
-    if unit is None:
-        raise MeshFormatError(f"unknown 3MF unit {name!r}", path=path, fix=f"use one of {', '.join(_3MF_UNITS)}")
-    return unit, f"the file declares its length unit: {name}"
+def _checked_arrays(vertices, faces, path, what="the mesh"):
+    """Vertices (n, 3) float64 and faces (m, 3) int64 of what a reader returned, or a MeshFormatError."""
+    try:
+        vertices = np.asarray(vertices, dtype=np.float64)
+        faces = np.asarray(faces)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise MeshFormatError(f"{what} is not a triangle mesh ({exc})", path=path,
+                              fix="check that the file is a complete mesh of this format") from None
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise MeshFormatError(f"{what}'s vertex positions have shape {vertices.shape}, not (vertices, 3) "
+                              "(a glTF POSITION accessor must be a VEC3)", path=path,
+                              fix="export positions as three coordinates per vertex")
+    if faces.ndim != 2 or faces.shape[1] != 3 or (faces.size and faces.dtype.kind not in "iu"):
+        raise MeshFormatError(f"{what}'s faces have shape {faces.shape}, not (faces, 3) vertex indices", path=path,
+                              fix="export the part as triangles")
+    return vertices, faces.astype(np.int64)
 
 
 def read(path):
-    loaded = load_trimesh(path)
-    unit, note = _declared_unit(loaded, path)
-    vertices, faces = flattened(loaded, path)
-    return TriangleMesh.from_indexed(vertices, faces, notes=(note,) if note else (), unit=unit)
+    vertices, faces = flattened(load_trimesh(path), path)
+    return TriangleMesh.from_indexed(vertices, faces)
 
 
-register_format("trimesh", [".ply", ".glb", ".gltf", ".3mf"], read)
+register_format("trimesh", [".ply", ".glb", ".gltf"], read)
 register_format("trimesh", [".off"], read, text=True)

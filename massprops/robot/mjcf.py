@@ -30,7 +30,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import OptionError
+from ..errors import MassPropsError, OptionError
 from ..frames import Pose, quat_to_matrix
 from .model import Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, tensor_from_elements
 from .xmlspans import parse_with_spans
@@ -245,10 +245,55 @@ def _link(k, body, names, model, geometries, errors, elements, spans, path):
                 insert_at=span.content if span else None, line=element.sourceline if element is not None else None)
 
 
+MAX_INCLUDES = 10_000        # <include> elements followed in all; a cycle or a bomb is refused, not expanded
+
+
+def check_includes(path):
+    """Every file an MJCF ``<include file=...>`` names, nested ones too, must be a regular file.
+
+    MuJoCo opens them itself: a named pipe would block it forever, a device
+    be read until memory runs out.  Paths are relative to the main file's
+    folder (MuJoCo's rule); a missing file is left for MuJoCo to name.
+    """
+    from lxml import etree
+
+    from ..io.inputs import check_input
+    folder = os.path.dirname(os.path.abspath(path))
+    pending, seen = [os.path.abspath(path)], set()
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True, recover=True)
+    while pending:
+        current = pending.pop()
+        if current in seen:
+            continue
+        seen.add(current)
+        if len(seen) > MAX_INCLUDES:
+            raise RobotFormatError(f"the model includes more than {MAX_INCLUDES} files", path=path,
+                                   fix="flatten the model's includes")
+        try:
+            root = etree.parse(current, parser).getroot()
+        except (OSError, etree.XMLSyntaxError):
+            continue                                    # MuJoCo says what is wrong with it
+        if root is None:
+            continue
+        for include in root.iter("include"):
+            name = include.get("file")
+            if not name:
+                continue
+            target = os.path.join(folder, name)
+            if not os.path.lexists(target):
+                continue
+            try:
+                check_input(target, what="file")
+            except MassPropsError as exc:
+                raise RobotFormatError(f"<include file={name!r}>: {exc.problem}", path=path, fix=exc.fix) from None
+            pending.append(os.path.abspath(target))
+
+
 def read_mjcf(path, resolver):
     """Read an MJCF file through MuJoCo into a RobotModel (bodies are the links; the world body is left out)."""
     mujoco = import_mujoco(path)
     path = os.fspath(path)
+    check_includes(path)
     try:
         spec = mujoco.MjSpec.from_file(path)
     except Exception as exc:  # noqa: BLE001 - MuJoCo raises ValueError with its own message

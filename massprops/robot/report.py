@@ -6,6 +6,8 @@ import csv
 import io
 import os
 
+from ..errors import printable
+
 __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
 
 CSV_COLUMNS = ("model,link,status,message,mass,volume,density,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
@@ -87,11 +89,11 @@ def _messages(obj):
     lines = []
     for link in obj["links"]:
         if link["message"] and link["status"] != "ok":
-            lines.append(f"  {link['link']}: {link['message']}")
+            lines.append(f"  {printable(link['link'])}: {printable(link['message'])}")
         for warning in link.get("warnings") or []:
-            lines.append(f"  warning: {warning}")
+            lines.append(f"  warning: {printable(warning)}")
     for warning in obj.get("warnings") or []:
-        lines.append(f"  warning: {warning}")
+        lines.append(f"  warning: {printable(warning)}")
     return lines
 
 

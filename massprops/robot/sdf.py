@@ -43,6 +43,7 @@ from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 __all__ = ["read_sdf", "parse_pose"]
 
 _MODEL_FRAME = "__model__"
+MAX_INCLUDE_DEPTH = 100       # far beyond real models; a chain of includes is refused, not recursed into
 
 
 def parse_pose(element, path, what):
@@ -102,8 +103,9 @@ class _Frames:
 class _Reader:
     """Reads one SDF file's models; included models are read from their own files."""
 
-    def __init__(self, path, resolver, spans, main=True):
+    def __init__(self, path, resolver, spans, main=True, chain=()):
         self.path, self.resolver, self.spans, self.main = path, resolver, spans, main
+        self.chain = chain or (os.path.realpath(path),)       # the files including this one, outermost first
         self.links, self.joints, self.warnings = [], [], []
 
     def model(self, element, frames, scope, outer_default, version):
@@ -152,6 +154,7 @@ class _Reader:
         uri = (include.findtext("uri") or "").strip()
         folder = self._model_folder(uri)
         file = _model_file(folder)
+        self._check_include(uri, file)
         root, spans, _ = parse_with_spans(file)
         model = root.find("model")
         if model is None:
@@ -160,11 +163,26 @@ class _Reader:
         pose_element = include.find("pose")
         frames.add(scope + name, name_in(_relative_to(pose_element)),
                    parse_pose(pose_element, self.path, f"include {uri!r}"))
-        inner = _Reader(file, self.resolver, spans, main=False)
+        inner = _Reader(file, self.resolver, spans, main=False, chain=self.chain + (os.path.realpath(file),))
         inner.model(model, frames, scope + name + "::", scope + name, root.get("version", "1.12"))
         self.links += inner.links
         self.joints += inner.joints
         self.warnings += inner.warnings
+
+    def _check_include(self, uri, file):
+        """Refuse an include that is not a regular file, that includes itself, or that nests too deep."""
+        from ..io.inputs import check_input
+        try:
+            check_input(file, what="SDF file")
+        except MassPropsError as exc:
+            raise RobotFormatError(f"included {uri!r}: {file} {exc.problem}", path=self.path, fix=exc.fix) from None
+        if os.path.realpath(file) in self.chain:
+            cycle = " → ".join(os.path.basename(f) for f in self.chain + (os.path.realpath(file),))
+            raise RobotFormatError(f"included {uri!r} includes itself ({cycle})", path=self.path,
+                                   fix="remove the <include> that closes the cycle")
+        if len(self.chain) > MAX_INCLUDE_DEPTH:
+            raise RobotFormatError(f"included {uri!r} is nested more than {MAX_INCLUDE_DEPTH} includes deep",
+                                   path=self.path, fix="flatten the model's includes")
 
     def _model_folder(self, uri):
         if uri.startswith("model://") or "://" not in uri:

@@ -28,6 +28,11 @@ def graph_scene(path, density, *, max_unpacked=None):
     from ..io.registry import check_mesh_file
     from ..io.trimesh_formats import load_trimesh
     check_mesh_file(path, max_unpacked=max_unpacked)
+    if str(path).lower().endswith(".3mf"):
+        return _scene_from_3mf(path, density)
+    if str(path).lower().endswith(".dae"):
+        from ..io.collada import check_instances
+        check_instances(path)
     loaded = load_trimesh(path)
     if not hasattr(loaded, "graph"):
         loaded = __import__("trimesh").Scene(loaded)
@@ -36,20 +41,33 @@ def graph_scene(path, density, *, max_unpacked=None):
 
 def scene_from_trimesh(loaded, name, density):
     """A :class:`Scene` of a ``trimesh.Scene``: one part per node with geometry, meshes keyed ``NAME#GEOMETRY``."""
-    from ..mesh.arrays import mesh_from_arrays
     nodes = sorted(loaded.graph.nodes_geometry)
     if not nodes:
         raise MeshFormatError("the scene holds no geometry", path=name, fix="export the parts as meshes")
     placements = [loaded.graph[node] for node in nodes]
+    return _placed(name, density, nodes, placements,
+                   lambda key: (loaded.geometry[key].vertices, loaded.geometry[key].faces))
+
+
+def _scene_from_3mf(path, density):
+    """A 3MF's build as a scene: its component graph walked by massprops, each mesh object read once."""
+    from ..io.threemf import read_graph
+    graph = read_graph(path)
+    nodes = [f"object {key.rpartition('#')[2]} (instance {k + 1})" for k, (key, _) in enumerate(graph.instances)]
+    return _placed(path, density, nodes, [(matrix, key) for key, matrix in graph.instances], graph.meshes.get)
+
+
+def _placed(name, density, nodes, placements, geometry_of):
+    """A :class:`Scene`: part ``nodes[k]`` is geometry ``placements[k][1]`` at matrix ``placements[k][0]``."""
+    from ..mesh.arrays import mesh_from_arrays
     matrices = np.array([np.asarray(m, dtype=float) for m, _ in placements])
     poses = placement_poses(matrices[:, :3, :3], matrices[:, :3, 3], path=name)
     meshes = {}
     for geometry_name in dict.fromkeys(geometry_name for _, geometry_name in placements):
-        geometry = loaded.geometry[geometry_name]
+        vertices, faces = geometry_of(geometry_name)
         # Welded by exact coordinates, as every reader does: exporters often split vertices per face.
         try:
-            meshes[f"{name}#{geometry_name}"] = mesh_from_arrays(geometry.vertices, geometry.faces,
-                                                                 argument=f"geometry {geometry_name!r}")
+            meshes[f"{name}#{geometry_name}"] = mesh_from_arrays(vertices, faces, argument=f"geometry {geometry_name!r}")
         except (TypeError, ValueError, AttributeError) as exc:
             raise MeshFormatError(f"geometry {geometry_name!r} is not a triangle mesh ({exc})", path=name,
                                   fix="export the parts as triangle meshes") from None

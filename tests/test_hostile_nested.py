@@ -1,0 +1,281 @@
+"""Untrusted files: nested graphs computed right or refused, bounded reading, no internal errors, safe output.
+
+Every file is generated here (:mod:`untrusted_files`).  Volumes are checked
+against exact rationals within the reported error bound.  The fuzz test runs
+each case under a timer of the harness (SIGALRM): a case that never
+finishes fails instead of stalling the run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+from fractions import Fraction
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+import massprops
+import untrusted_files as files
+from massprops.cli import main
+from massprops.errors import MassPropsError, MeshFormatError, MeshGeometryError
+
+CASE_SECONDS = 20
+
+
+class CaseTimeout(BaseException):
+    """Raised by the harness's timer: not an Exception, so no reader can swallow it."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds=CASE_SECONDS):
+    def expire(signum, frame):
+        raise CaseTimeout(f"the case did not finish within {seconds} s")
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _volume_is(path, expected, **kwargs):
+    result = massprops.mass_properties(path, **kwargs)
+    props = result.properties
+    assert abs(Fraction(props.volume) - Fraction(expected)) <= Fraction(props.error.volume), (props.volume, expected)
+    return result
+
+
+# ---------------------------------------------------------------- silently wrong numbers
+
+def test_a_3mf_sharing_components_between_levels_counts_every_instance(tmp_path):
+    path = tmp_path / "shared.3mf"
+    count = files.shared_levels_3mf(path, 6)                         # 64 cubes of 1 mm³ (trimesh kept 51)
+    result = _volume_is(path, Fraction(count, 10 ** 9))
+    assert result.triangles == 12 * count
+
+
+def test_a_3mf_scene_places_a_shared_component_every_time(tmp_path):
+    from massprops.scene.assembly import compute_scene, load_scene
+    path = tmp_path / "shared.3mf"
+    count = files.shared_levels_3mf(path, 4)
+    scene = load_scene(str(path))
+    assert len(scene.parts) == count and len(scene.meshes) == 1       # one mesh, integrated once
+    total = compute_scene(scene).total
+    assert abs(Fraction(total.volume) - count) <= Fraction(total.error.volume)
+
+
+def test_a_vtu_with_a_voxel_integrates_it_and_refuses_unknown_cells(tmp_path):
+    tetra, voxel = files.VTK_CELLS[10], files.VTK_CELLS[11]
+    files.write_vtu(tmp_path / "voxel.vtu", [(10, tetra[0]), (11, voxel[0])])
+    _volume_is(tmp_path / "voxel.vtu", Fraction(7, 6))               # meshio alone dropped the voxel: 1/6
+    files.write_vtu(tmp_path / "unknown.vtu", [(10, tetra[0]), (255, voxel[0])])
+    with pytest.raises(MeshFormatError, match="1 of VTK type 255"):
+        massprops.mass_properties(tmp_path / "unknown.vtu")
+
+
+# ---------------------------------------------------------------- hangs and runaway memory
+
+def test_nested_graphs_are_bounded_before_expansion(tmp_path):
+    files.chain_3mf(tmp_path / "chain.3mf", 1000)
+    files.collada_graph(str(tmp_path / "bomb.dae"), 30)              # 2**30 instances in about 1 kB
+    files.collada_graph(str(tmp_path / "cycle.dae"), 3, cycle=True)
+    with time_limit():
+        with pytest.raises(MeshFormatError, match="nested more than 100 levels"):
+            massprops.mass_properties(tmp_path / "chain.3mf")
+        with pytest.raises(MeshFormatError, match="more than 100000 geometries"):
+            massprops.mass_properties(tmp_path / "bomb.dae")
+        with pytest.raises(MeshFormatError, match="instances itself"):
+            massprops.mass_properties(tmp_path / "cycle.dae")
+
+
+def test_a_3mf_component_cycle_is_refused(tmp_path):
+    path = tmp_path / "cycle.3mf"
+    files.write_3mf(path, [files.components_object(1, [(2, 0.0)]), files.components_object(2, [(1, 0.0)])],
+                    [(1, 0.0)])
+    with time_limit(), pytest.raises(MeshFormatError, match="contains itself"):
+        massprops.mass_properties(path)
+
+
+@pytest.mark.parametrize("name", ["part.ply", "part.glb", "part.dae", "part.vtu", "mujoco.msh"])
+def test_sparse_files_of_every_format_are_refused_before_reading(tmp_path, name):
+    path = tmp_path / name
+    _seed(path)
+    with open(path, "r+b") as f:
+        f.truncate(10 * 10 ** 9)                                     # 10 GB, almost all of it a hole
+    with time_limit(), pytest.raises(MeshFormatError, match="sparse"):
+        massprops.mass_properties(path)
+
+
+def _seed(path):
+    import struct
+
+    import trimesh
+    if path.suffix == ".msh":
+        with open(path, "wb") as f:
+            f.write(struct.pack("<4i", 4, 0, 0, 4) + files.TETRA.tobytes() + files.TETRA_FACES.astype("<i4").tobytes())
+    elif path.suffix == ".vtu":
+        files.write_vtu(path, [(10, files.VTK_CELLS[10][0])])
+    else:
+        trimesh.Trimesh(files.TETRA, files.TETRA_FACES, process=False).export(path)
+
+
+def test_an_mjcf_include_that_is_a_fifo_is_refused(runner, tmp_path):
+    os.mkfifo(tmp_path / "included.xml")                            # MuJoCo would block opening it
+    (tmp_path / "robot.xml").write_text('<mujoco><worldbody><body name="b"><geom type="box" size="1 1 1"/></body>'
+                                        '</worldbody><include file="included.xml"/></mujoco>')
+    with time_limit():
+        result = runner.invoke(main, ["robot", "props", str(tmp_path / "robot.xml")])
+    assert result.exit_code == 1 and "named pipe (FIFO)" in result.output and "Traceback" not in result.output
+
+
+# ---------------------------------------------------------------- internal errors
+
+def test_an_sdf_including_itself_is_one_line(runner, tmp_path):
+    folder = tmp_path / "loop"
+    folder.mkdir()
+    (folder / "model.config").write_text('<model><name>loop</name><sdf version="1.9">model.sdf</sdf></model>')
+    sdf = ('<sdf version="1.9"><model name="loop"><link name="a"><inertial><mass>1</mass></inertial></link>'
+           '<include><uri>model://loop</uri><name>inner</name></include></model></sdf>')
+    (folder / "model.sdf").write_text(sdf)
+    result = runner.invoke(main, ["robot", "props", str(folder / "model.sdf")], env={"GZ_SIM_RESOURCE_PATH": str(tmp_path)})
+    assert result.exit_code == 1 and "includes itself" in result.output and "internal error" not in result.output
+
+
+@pytest.mark.parametrize("kind", sorted(files.GLTF_TYPES))
+def test_gltf_positions_must_be_vec3(tmp_path, kind):
+    path = tmp_path / "part.glb"
+    files.write_glb(path, kind)
+    if kind == "VEC3":
+        _volume_is(path, Fraction(1, 6))
+    else:
+        with pytest.raises(MeshFormatError, match=f"shape \\(4, {files.GLTF_TYPES[kind]}\\)|shape \\(4, \\d, \\d\\)"):
+            massprops.mass_properties(path)
+
+
+def test_a_collada_unit_beyond_double_range(tmp_path):
+    path = tmp_path / "part.dae"
+    files.collada_graph(str(path), 0)
+    text = path.read_text()
+    path.write_text(text.replace("<asset>", '<asset><unit meter="1e400"/>', 1))
+    with pytest.raises(MeshFormatError, match="outside the range"):
+        massprops.mass_properties(path)
+
+
+def test_coordinates_near_the_largest_double_are_a_massprops_error(tmp_path):
+    path = tmp_path / "huge.obj"       # an extent of 1e308 along each axis: the frame's scale is 2**1024
+    path.write_text("v 0 0 0\nv 1e308 0 0\nv 0 1e308 0\nv 0 0 1e308\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    with pytest.raises(MeshGeometryError, match="overflow double precision"):
+        massprops.mass_properties(path)
+
+
+# ---------------------------------------------------------------- safe output
+
+def test_file_content_in_messages_is_escaped(runner, tmp_path):
+    path = tmp_path / "title.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv \x1b]0;PWNED\x07 0 0\x0b\x85\nf 1 2 3\n")
+    for args in (["props", str(path)], ["batch", str(path), "-q"], ["props", str(path), "--format", "json"]):
+        result = runner.invoke(main, args)
+        text = result.stdout + result.stderr
+        assert "\x1b" not in text and "\x07" not in text and "\x0b" not in text and "\x85" not in text
+        assert "\\x1b]0;PWNED\\x07 0 0" in text                   # ESC and BEL shown; VT and NEL break no line
+        assert len([line for line in result.stderr.splitlines() if line]) <= 1
+
+
+# ---------------------------------------------------------------- structure-aware fuzz
+
+@st.composite
+def nested_3mf(draw):
+    """A DAG of component levels over one cube, placed disjointly; sometimes a cycle or a missing object."""
+    levels = draw(st.integers(0, 4))
+    objects, counts, width = [files.cube_object(1)], {1: 1}, 1.0
+    ids = [1]
+    for k in range(levels):
+        members = draw(st.lists(st.sampled_from(ids), min_size=1, max_size=3))
+        ident = len(counts) + 1
+        objects.append(files.components_object(ident, [(m, 2.0 * j * width) for j, m in enumerate(members)]))
+        counts[ident] = sum(counts[m] for m in members)
+        width *= 6.0
+        ids.append(ident)
+    fault = draw(st.sampled_from([None, None, None, "cycle", "missing"]))
+    top = ids[-1]
+    if fault == "cycle":
+        objects.append(files.components_object(len(counts) + 1, [(len(counts) + 2, 0.0)]))
+        objects.append(files.components_object(len(counts) + 2, [(len(counts) + 1, 0.0)]))
+        top = len(counts) + 1
+    elif fault == "missing":
+        top = 999
+    return objects, top, counts.get(top)
+
+
+@st.composite
+def case(draw):
+    kind = draw(st.sampled_from(["3mf", "dae", "glb", "vtu", "sparse"]))
+    if kind == "3mf":
+        return kind, draw(nested_3mf())
+    if kind == "dae":
+        return kind, (draw(st.sampled_from([0, 1, 2, 3, 25, 30])), draw(st.booleans()))
+    if kind == "glb":
+        return kind, (draw(st.sampled_from(sorted(files.GLTF_TYPES))), draw(st.sampled_from([0, 1, 3, 4, 5, 10 ** 6])))
+    if kind == "vtu":
+        return kind, draw(st.lists(st.sampled_from([10, 11, 12, 13, 14, 42, 255, 2]), min_size=1, max_size=5))
+    return kind, draw(st.sampled_from(["part.ply", "part.glb", "part.dae", "part.vtu", "mujoco.msh", "part.stl"]))
+
+
+def _write_case(tmp_path, kind, spec):
+    """Write the case's file; return (path, expected volume in the file's SI result, or None: must be refused)."""
+    if kind == "3mf":
+        objects, top, count = spec
+        path = tmp_path / "case.3mf"
+        files.write_3mf(path, objects, [(top, 0.0)])
+        return path, None if count is None else Fraction(count, 10 ** 9)
+    if kind == "dae":
+        levels, cycle = spec
+        path = tmp_path / "case.dae"
+        files.collada_graph(str(path), levels, cycle=cycle)
+        # Every instance coincides with the first: the union is one cube; too many instances are refused.
+        return path, None if cycle or 2 ** levels > 100_000 else Fraction(1)
+    if kind == "glb":
+        path = tmp_path / "case.glb"
+        files.write_glb(path, *spec)
+        return path, Fraction(1, 6) if spec == ("VEC3", 4) else None
+    if kind == "vtu":
+        path = tmp_path / "case.vtu"
+        files.write_vtu(path, [(t, files.VTK_CELLS.get(t, files.VTK_CELLS[11])[0]) for t in spec])
+        known = all(t in files.VTK_CELLS for t in spec)
+        return path, sum(files.VTK_CELLS[t][1] for t in spec) if known else None
+    path = tmp_path / spec
+    _seed(path)
+    with open(path, "r+b") as f:
+        f.truncate(1 << 32)
+    return path, None
+
+
+_TRIED = []
+
+
+def test_structure_aware_mutations_give_the_exact_result_or_a_massprops_error(tmp_path):
+    @settings(max_examples=int(os.environ.get("FUZZ_N", "60")), deadline=None, database=None,
+              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+    @given(spec=case())
+    def check(spec):
+        kind, detail = spec
+        for old in tmp_path.iterdir():
+            old.unlink()
+        path, expected = _write_case(tmp_path, kind, detail)
+        _TRIED.append(kind)
+        with time_limit():
+            try:
+                result = massprops.mass_properties(path)
+            except MassPropsError as exc:
+                assert str(exc).startswith(str(path)) and "\n" not in str(exc)
+                assert expected is None, (spec, str(exc))
+                return
+        assert expected is not None, (spec, result.properties.volume)
+        props = result.properties
+        assert abs(Fraction(props.volume) - expected) <= Fraction(props.error.volume), (spec, props.volume)
+
+    check()
+    assert len(_TRIED) >= 1
