@@ -1,17 +1,21 @@
-"""What the solid's checks cost (issue 14): the check between shells on a one-shell mesh, and the
-self-intersection check within a shell, against the end-to-end time of ``massprops props``.
+"""What the solid's checks cost: the search for meeting faces on meshes where none meet, and the exact
+arrangement on meshes where faces cross, against plain integration and the peers.
 
 Measured:
 
 - end to end, ``massprops props --format json`` in a fresh process, with
   ``--self-intersection`` and with ``--no-self-intersection``, on tori of
   10k to 300k triangles and on the 1.31M-triangle icosphere (runs
-  interleaved, best of several): the self-intersection check's share, which
-  sets the face count up to which it runs by default
-  (:data:`massprops.mesh.solid.SELF_INTERSECTION_UP_TO`);
+  interleaved, best of several): the check's share (it runs by default at
+  every size);
 - in process, on the icosphere, each step the solid adds to a one-shell mesh:
   the unused-vertex test, the between-shell decision (one shell: nothing to
-  compare) and, for reference, the self-intersection search alone.
+  compare) and, for reference, the self-intersection search alone;
+- in process, on two overlapping icospheres (one soup) and an icosphere with
+  a dent pushed through its other side: ``mass_properties`` with the
+  arrangement against the plain signed integral of the same faces, and
+  against libigl's CGAL union and trueform's arrangement where installed
+  (peers for the benchmark only, never dependencies).
 """
 
 from __future__ import annotations
@@ -58,6 +62,73 @@ def _in_process(path, repeats):
     return best
 
 
+def _overlapping_icospheres(subdivisions):
+    import numpy as np
+    from massprops.validation import solids
+    a = solids.icosphere(subdivisions, 1.0)
+    b = solids.icosphere(subdivisions, 1.0)
+    b = type(b)(b.vertices + np.array([0.9, 0.31, 0.17]), b.faces)
+    return solids.combine(a, b)
+
+
+def _dented(subdivisions):
+    import numpy as np
+    from massprops.validation import solids
+    sphere = solids.icosphere(subdivisions, 1.0)
+    vertices = sphere.vertices.copy()
+    vertices[int(np.argmax(vertices[:, 2]))] = [0.0, 0.0, -1.5]
+    return type(sphere)(vertices, sphere.faces)
+
+
+def _best(step, repeats):
+    best = float("inf")
+    for _ in range(repeats):
+        begin = time.perf_counter()
+        step()
+        best = min(best, time.perf_counter() - begin)
+    return best
+
+
+def _peers(mesh):
+    """Seconds of libigl's CGAL self-union and trueform's arrangement on the same soup, where installed."""
+    import numpy as np
+    out = {}
+    try:
+        import igl.copyleft.cgal as cgal
+        v, f = np.ascontiguousarray(mesh.vertices), np.ascontiguousarray(mesh.faces, dtype=np.int64)
+        empty_v, empty_f = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+        out["libigl CGAL union"] = _best(lambda: cgal.mesh_boolean(v, f, empty_v, empty_f, "union"), 1)
+    except Exception:                                            # noqa: BLE001 - a peer that is missing or fails
+        pass
+    try:
+        import trueform as tf
+        soup = tf.Mesh(np.ascontiguousarray(mesh.faces, dtype=np.int32), np.ascontiguousarray(mesh.vertices))
+        out["trueform arrangement"] = _best(lambda: tf.mesh_arrangements(soup), 1)
+    except Exception:                                            # noqa: BLE001
+        pass
+    return out
+
+
+def arrangement_rows(quick=False):
+    from massprops.compute import mass_properties
+    rows = ["| soup | triangles | signed integral (s) | arrangement, end of `mass_properties` (s) | ratio | peers (s) |",
+            "|---|---:|---:|---:|---:|---|"]
+    levels = (3, 4) if quick else (3, 4, 5, 6)
+    for name, build in (("two overlapping icospheres", _overlapping_icospheres), ("dented icosphere", _dented)):
+        for level in levels:
+            mesh = build(level)
+            plain = _best(lambda: mass_properties(mesh, self_intersection=False, only="volume"), 3) \
+                if name == "dented icosphere" else None
+            solved = _best(lambda: mass_properties(mesh), 2)
+            if plain is None:
+                from massprops.core import integrate
+                plain = _best(lambda: integrate(mesh.vertices, mesh.faces), 3)
+            peers = ", ".join(f"{k} {v:.3f}" for k, v in _peers(mesh).items()) or "not installed"
+            rows.append(f"| {name} | {mesh.faces.shape[0]:,} | {plain:.4f} | {solved:.4f} | "
+                        f"{solved / plain:.0f}x | {peers} |")
+    return "\n".join(rows)
+
+
 def run(quick=False):
     repeats = 2 if quick else 4
     cases = [torus_stl(n) for n in (SIZES[:2] if quick else SIZES)]
@@ -74,4 +145,5 @@ def run(quick=False):
     rows += ["", "| on the 1.31M-triangle icosphere, in process | seconds | share of end to end (check off) |",
              "|---|---:|---:|"]
     rows += [f"| {name} | {seconds:.4f} | {seconds / off:.1%} |" for name, seconds in steps.items()]
+    rows += ["", arrangement_rows(quick)]
     return "\n".join(rows)

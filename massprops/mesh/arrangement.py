@@ -22,8 +22,9 @@ module finds the faces that bound it:
    one side has ``w > 0`` and the other not; it is taken once (the lowest of
    coincident faces owns it), turned to face out of the solid.
 4. **Integrals.** Uncut pieces are whole input faces and go to the compiled
-   kernel with its bounds; cells are integrated exactly in rationals (no
-   intersection vertex is rounded) and added with one rounding.
+   kernel with its bounds; cells are integrated from their exact rational
+   corners (no intersection vertex is rounded), each term to 2**-256 of the
+   frame's unit in integers, and added with one rounding.
 
 Every decision is a sign of an exact integer expression.
 """
@@ -48,10 +49,11 @@ class Arrangement:
     faces : ndarray, shape (k, 3), int64
         Whole input faces that bound the solid, wound out of it.
     exact : tuple
-        ``(det, first, second)``: exact Fractions, the signed-tetrahedron sums
-        (see :mod:`massprops.core.moments`) of the cut pieces that bound the
-        solid, in the scaled coordinates of the geometry's frame; ``first`` a
-        list of 3, ``second`` 3 × 3.
+        ``(det, first, second, error)``: the signed-tetrahedron sums (see
+        :mod:`massprops.core.moments`) of the cut pieces that bound the solid,
+        in the scaled coordinates of the geometry's frame, as Fractions
+        (``first`` a list of 3, ``second`` 3 × 3), each within ``error`` of
+        the exact rational sum.
     area2 : float
         About twice the area of those cut pieces.
     cut_faces, cells : int
@@ -319,13 +321,29 @@ def _contains(corners, p, i, j):
 # -- exact integrals -----------------------------------------------------------------------------
 
 class _Sums:
-    """Exact signed-tetrahedron sums (det, first, second) of triangles with homogeneous corners."""
+    """Signed-tetrahedron sums (det, first, second) of triangles with homogeneous corners, in fixed point.
 
-    def __init__(self):
-        self.det = Fraction(0)
-        self.first = [Fraction(0)] * 3
-        self.second = [[Fraction(0)] * 3 for _ in range(3)]
+    Each term, a rational, is taken to ``2**-FRACTION_BITS`` of the frame's
+    scaled unit (rounded down, in integers), so the sums stay integers; every
+    term adds less than one such unit of error, and :attr:`error` counts them.
+    """
+
+    FRACTION_BITS = 256
+
+    def __init__(self, exponent):
+        self.exponent = exponent           # grid unit = 2**exponent scaled units
+        self.det = 0
+        self.first = [0, 0, 0]
+        self.second = [[0] * 3 for _ in range(3)]
+        self.terms = 0
         self.area2 = 0.0
+
+    def _fixed(self, numerator, denominator, power):
+        """floor(numerator / denominator · 2**(power · exponent) · 2**FRACTION_BITS)."""
+        shift = self.FRACTION_BITS + power * self.exponent
+        if shift >= 0:
+            return (numerator << shift) // denominator
+        return numerator // (denominator << -shift)
 
     def add_polygon(self, cell, sign):
         for k in range(1, len(cell) - 1):
@@ -343,20 +361,27 @@ class _Sums:
             return
         s = [a[k] + b[k] + c[k] for k in range(3)]
         d3 = d * d * d
-        self.det += Fraction(det, d3)
+        d4 = d3 * d
+        d5 = d4 * d
+        self.det += self._fixed(det, d3, 3)
         for k in range(3):
-            self.first[k] += Fraction(det * s[k], d3 * d)
-        d5 = d3 * d * d
-        for k in range(3):
+            self.first[k] += self._fixed(det * s[k], d4, 4)
             for m in range(k, 3):
-                value = Fraction(det * (s[k] * s[m] + a[k] * a[m] + b[k] * b[m] + c[k] * c[m]), d5)
+                value = self._fixed(det * (s[k] * s[m] + a[k] * a[m] + b[k] * b[m] + c[k] * c[m]), d5, 5)
                 self.second[k][m] += value
                 if m != k:
                     self.second[m][k] += value
-        u = [float(Fraction(b[k] - a[k], d)) for k in range(3)]
-        v = [float(Fraction(c[k] - a[k], d)) for k in range(3)]
+        self.terms += 1
+        u = [(b[k] - a[k]) / d for k in range(3)]
+        v = [(c[k] - a[k]) / d for k in range(3)]
         n = _cross(u, v)
-        self.area2 += math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        self.area2 += math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) * math.ldexp(1.0, 2 * self.exponent)
+
+    def exact(self):
+        """``(det, first, second, error)``: the sums as Fractions (scaled units) and a bound on each one's error."""
+        unit = Fraction(1, 1 << self.FRACTION_BITS)
+        return (self.det * unit, [x * unit for x in self.first], [[x * unit for x in row] for row in self.second],
+                self.terms * unit)
 
 
 # -- the arrangement -----------------------------------------------------------------------------
@@ -444,7 +469,7 @@ def arrange(geometry, faces, weights, pairs):
             segments.setdefault(u, []).append(segment)
     cut = np.zeros(m, dtype=bool)
     cut[list(segments)] = True
-    sums = _Sums()
+    sums = _Sums(soup.exponent)
     negative = False
     n_cells = 0
     for t, its_segments in segments.items():
@@ -477,7 +502,4 @@ def arrange(geometry, faces, weights, pairs):
         kept_faces = faces[uncut]
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
-    scale = Fraction(2) ** soup.exponent
-    exact = (sums.det * scale ** 3, [x * scale ** 4 for x in sums.first],
-             [[x * scale ** 5 for x in row] for row in sums.second])
-    return Arrangement(out, exact, sums.area2 * float(scale) ** 2, int(cut.sum()), n_cells, negative)
+    return Arrangement(out, sums.exact(), sums.area2, int(cut.sum()), n_cells, negative)

@@ -214,16 +214,16 @@ def _empty(arranged):
 
 
 def with_exact(moments, exact, area2):
-    """``moments`` plus exact sums ``(det, first, second)`` (Fractions, same frame), rounded once.
+    """``moments`` plus sums ``(det, first, second, error)`` (Fractions, same frame, each within ``error``).
 
-    Each sum's bound grows by exactly the rounding of that one addition.
+    Each sum's bound grows by ``error`` and the rounding of that one addition.
     """
     from dataclasses import replace
 
     def added(value, extra):
         total = Fraction(float(value)) + extra
         rounded = float(total)
-        return rounded, math.nextafter(float(abs(Fraction(rounded) - total)), math.inf)
+        return rounded, math.nextafter(float(abs(Fraction(rounded) - total) + exact[3]), math.inf)
 
     det_sum, det_round = added(moments.det_sum, exact[0])
     first, first_round = zip(*(added(moments.first[k], exact[1][k]) for k in range(3)))
