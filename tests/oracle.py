@@ -47,3 +47,14 @@ def rational_moments(signed_triangles):
     central = [[second[i][j] - volume * center[i] * center[j] for j in range(3)] for i in range(3)]
     trace = sum(central[i][i] for i in range(3))
     return volume, center, [[(trace if i == j else 0) - central[i][j] for j in range(3)] for i in range(3)]
+
+
+def within_bounds(props, exact):
+    """Every quantity within its stated error bound of the exact value (the bounds are rigorous)."""
+    error = props.error
+    assert abs(Fraction(props.volume) - exact["volume"]) <= Fraction(error.volume), "volume"
+    for got, want in zip(props.center_of_mass.tolist(), exact["center_of_mass"]):
+        assert abs(Fraction(got) - want) <= Fraction(error.center_of_mass), "center of mass"
+    for got_row, want_row in zip(props.inertia_com.tolist(), exact["inertia_com"]):
+        for got, want in zip(got_row, want_row):
+            assert abs(Fraction(got) - want) <= Fraction(error.inertia_com), "inertia"

@@ -165,7 +165,7 @@ class _Soup:
         near = np.flatnonzero((low[:, a1] <= pf[a1] + margin) & (high[:, a1] >= pf[a1] - margin)
                               & (low[:, a2] <= pf[a2] + margin) & (high[:, a2] >= pf[a2] - margin)
                               & (high[:, axis] >= pf[axis] - margin))
-        px, py, pz = p[a1], p[a2], p[axis]
+        px, py = p[a1], p[a2]
         total = 0
         for t in near.tolist():
             (a, b, c), normal, offset = self.plane(t)

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import MeshGeometryError, OpenMeshError, WindingError
+from ..errors import MeshGeometryError, WindingError
 from ..core import edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 
