@@ -93,6 +93,7 @@ class Resolver:
     log: dict = field(default_factory=dict)
     _package_xml: dict = field(default_factory=dict)
     _package_roots: list = field(default_factory=list)
+    _passed_over: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.environ is None:
@@ -209,6 +210,9 @@ class Resolver:
         what = f"package.xml naming {name!r} nor folder {name!r}" if scheme == "package" \
             else f"folder {name!r} with a model.config"
         notes.append(f"no {what} above {self.folder}")
+        if name in self._passed_over:
+            notes.append(f"the folder {self._passed_over[name]} is outside the model's roots: give "
+                         f"{option('package')} or {option('root')} if it is the package")
         return tuple(notes)
 
     def _checked(self, uri, candidates, ancestor_name=None):
@@ -253,11 +257,13 @@ class Resolver:
                         yield folder, "package.xml"
             # A folder's name is no evidence it is a package: only inside the roots (not /etc for package://etc/).
             for ancestor in self._ancestors():
-                if os.path.basename(ancestor) == name and self.inside(ancestor):
-                    yield ancestor, "folder name"
-                candidate = os.path.join(ancestor, name)
-                if os.path.isdir(candidate) and self.inside(candidate):
-                    yield candidate, "folder name"
+                for candidate in [ancestor] * (os.path.basename(ancestor) == name) + [os.path.join(ancestor, name)]:
+                    if not os.path.isdir(candidate):
+                        continue
+                    if self.inside(candidate):
+                        yield candidate, "folder name"
+                    else:
+                        self._passed_over.setdefault(name, candidate)
         else:
             for variable in GAZEBO_VARIABLES:
                 for entry in self._split(variable):

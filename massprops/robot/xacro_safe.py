@@ -245,7 +245,7 @@ class _Expansion:
             return xacro.substitution_args_context["arg"][name]
 
         own = {"load_yaml": self._load_yaml, "dotify": xacro.YamlDictWrapper, "arg": arg, "fatal": fatal,
-               "error": silent, "warning": silent, "message": silent}
+               "error": silent, "warning": silent, "message": silent, "print_location": silent}
         self.callables = tuple(own.values())
         root = dict(FUNCTIONS)
         root.update(math=xacro.NameSpace(), xacro=xacro.NameSpace(), load_yaml=self._load_yaml)
