@@ -208,7 +208,7 @@ class _Walk:
 def evaluate(text, lookup, *, callables=(), namespaces=lambda value: False):
     """The value of the expression ``text``, by the rules of the module docstring.
 
-    ``lookup(name)`` gives a name's value (raising NameError if none); ``callables`` are the function
+    ``lookup(name)`` gives a name's value (KeyError if none: then :data:`FUNCTIONS`); ``callables`` are the function
     objects a call may reach besides :data:`FUNCTIONS`; ``namespaces(value)`` says whether dotted access
     into ``value`` reads its items.  Raises ``_Refused`` for anything not admitted.
     """
@@ -216,7 +216,14 @@ def evaluate(text, lookup, *, callables=(), namespaces=lambda value: False):
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise _Refused(f"not an expression ({exc.msg})") from None
-    return _Walk(lookup, (*FUNCTIONS.values(), *callables), namespaces)(tree)
+    def named(name):
+        try:
+            return lookup(name)
+        except KeyError:
+            if name in FUNCTIONS:
+                return FUNCTIONS[name]
+            raise _Refused(f"name {name!r} is not defined") from None
+    return _Walk(named, (*FUNCTIONS.values(), *callables), namespaces)(tree)
 
 
 # -- the xacro package, hooked ------------------------------------------------------
@@ -285,13 +292,8 @@ class _Expansion:
 
     def safe_eval(self, expression, symbols, locals=None):
         """xacro.safe_eval's replacement: ``${expression}`` against the property table ``symbols``."""
-        def lookup(name):
-            try:
-                return symbols[name]
-            except KeyError:
-                raise _Refused(f"name {name!r} is not defined") from None
         try:
-            return evaluate(expression, lookup, callables=self.callables, namespaces=self._namespace)
+            return evaluate(expression, symbols.__getitem__, callables=self.callables, namespaces=self._namespace)
         except _Refused as exc:
             raise self.refuse("expression", str(exc), "${" + expression.strip() + "}") from None
 
@@ -306,15 +308,12 @@ class _Expansion:
         def dirname():
             return substitution_args._eval_dirname(context.get("filename"))
 
-        names = {"true": True, "True": True, "false": False, "False": False, "arg": arg, "dirname": dirname,
-                 **FUNCTIONS}
+        names = {"true": True, "True": True, "false": False, "False": False, "arg": arg, "dirname": dirname}
 
         def lookup(name):
             if name in names:
                 return names[name]
-            if name in args:
-                return substitution_args.convert_value(args[name], "auto")
-            raise _Refused(f"name {name!r} is not defined")
+            return substitution_args.convert_value(args[name], "auto")
         try:
             return str(evaluate(expression, lookup, callables=(arg, dirname)))
         except _Refused as exc:
