@@ -45,6 +45,12 @@ def model_options(f):
                           "(default: the link is an error)."),
         click.option("--xacro-arg", "xacro_args", multiple=True, metavar="NAME=VALUE", callback=_pairs,
                      help="Argument for a .xacro file (repeatable)."),
+        click.option("--allow-env", is_flag=True,
+                     help="Let a .xacro file read environment variables ($(env), $(optenv), $(cwd)); without it "
+                          "$(env) is refused and $(optenv) takes its default."),
+        click.option("--root", "roots", multiple=True, metavar="DIR", type=click.Path(file_okay=False),
+                     help="A folder the model may also read files from (repeatable); by default only its own "
+                          "package and the packages it names."),
         options.repair_option,
     ]
     for decorate in reversed(decorators):
@@ -52,8 +58,8 @@ def model_options(f):
     return f
 
 
-def _settings(command, geometry, mass_policy, density, package, config_path, joints, on_open, xacro_args, repair,
-              **extra):
+def _settings(command, geometry, mass_policy, density, package, config_path, joints, on_open, xacro_args, allow_env,
+              roots, repair, **extra):
     from ..robot.analyze import RobotSettings
     from ..robot.geometry import parse_on_open
     parse = options.guarded(parse_on_open, on_open)
@@ -61,7 +67,7 @@ def _settings(command, geometry, mass_policy, density, package, config_path, joi
         raise SystemExit(2)
     return RobotSettings(command=command, geometry=geometry, mass_policy=mass_policy, density=density,
                          packages=package, config_path=config_path, joints=joints, repair=repair, on_open=on_open,
-                         xacro_args=xacro_args, option_style="cli", **extra)
+                         xacro_args=xacro_args, allow_env=allow_env, roots=roots, option_style="cli", **extra)
 
 
 def _analyze_all(models, settings, jobs):

@@ -47,6 +47,8 @@ class RobotSettings:
     massless: tuple = ()
     declared_only: bool = False
     xacro_args: tuple = ()
+    allow_env: bool = False               # xacro's $(env ...), $(optenv ...) and $(cwd) may read the environment
+    roots: tuple = ()                     # folders the model may read from besides its own package (--root)
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
 
     @property
@@ -73,8 +75,9 @@ def prepare(path, settings):
     from .load import load_model
     from .resolve import Resolver
     config = load_config(settings.config_path) if settings.config_path else None
-    resolver = Resolver(os.fspath(path), dict(settings.packages), dict(config.packages) if config else {})
-    model = load_model(path, resolver, xacro_args=dict(settings.xacro_args))
+    resolver = Resolver(os.fspath(path), dict(settings.packages), dict(config.packages) if config else {},
+                        roots=tuple(settings.roots))
+    model = load_model(path, resolver, xacro_args=dict(settings.xacro_args), allow_env=settings.allow_env)
     mass = MassSettings(settings.policy, settings.density, settings.geometry, settings.repair,
                         parse_on_open(settings.on_open), config)
     values = parse_joint_values(settings.joints, model)

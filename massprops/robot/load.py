@@ -42,8 +42,11 @@ def detect_format(path):
     return FORMATS[tag], xacro
 
 
-def load_model(path, resolver, *, xacro_args=None):
+def load_model(path, resolver, *, xacro_args=None, allow_env=False):
     """The :class:`massprops.robot.model.RobotModel` of a URDF, xacro, SDF or MJCF file.
+
+    A xacro file is expanded without running any of its code
+    (:mod:`massprops.robot.xacro_safe`); ``allow_env`` lets it read environment variables.
 
     Raises
     ------
@@ -57,11 +60,14 @@ def load_model(path, resolver, *, xacro_args=None):
     check_input(path, what="robot description", dir_fix="name the .urdf/.sdf/.xml file")
     kind, xacro = detect_format(path)
     if kind == "urdf":
-        from .urdf import expand_xacro, read_urdf
+        from .urdf import read_urdf
         if xacro:
-            data = expand_xacro(path, resolver, xacro_args)
-            return read_urdf(path, data=data, writable="a xacro file is generated: write the expanded URDF "
-                                                        "(xacro FILE > robot.urdf) and write that")
+            from dataclasses import replace
+            from .xacro_safe import expand_xacro
+            data, warnings = expand_xacro(path, resolver, xacro_args, allow_env=allow_env)
+            model = read_urdf(path, data=data, writable="a xacro file is generated: write the expanded URDF "
+                                                         "(xacro FILE > robot.urdf) and write that")
+            return replace(model, warnings=warnings + model.warnings) if warnings else model
         return read_urdf(path)
     if kind == "sdf":
         from .sdf import read_sdf

@@ -16,19 +16,18 @@ height along z; a mesh ``scale`` multiplies its coordinates per axis.
 from __future__ import annotations
 
 import os
-from contextlib import contextmanager
 from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MassPropsError, OptionError, option
+from ..errors import MassPropsError
 from ..frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
 from .geometry import NO_VOLUME
 from .xmlspans import line_of, parse_numbers, parse_with_spans, the_shape
 
-__all__ = ["read_urdf", "expand_xacro"]
+__all__ = ["read_urdf"]
 
 
 def _origin(element, path, what):
@@ -188,61 +187,3 @@ def _placed(link, placed):
     parent, pose = placed[link.name]
     from dataclasses import replace
     return replace(link, parent=parent, pose_in_parent=pose)
-
-
-# -- xacro ------------------------------------------------------------------------
-
-@contextmanager
-def _find_through(resolver):
-    """xacro's ``$(find PKG)`` and ``package://`` includes answered by massprops's resolver (not ament or rospkg)."""
-    from xacro import substitution_args
-    original = substitution_args._eval_find
-
-    def find(package):
-        folder = resolver.find_package(package)
-        if folder is None:
-            tried = resolver.log[(f"$(find {package})", None)].tried
-            raise MassPropsError(f"$(find {package}): package not found (tried: {'; '.join(tried) or 'nowhere'})",
-                                 path=resolver.model_path, fix=f"give {option('package')} for {package!r}")
-        return folder
-
-    import xacro
-    original_include = xacro.abs_filename_spec
-
-    def include(filename_spec):
-        # <xacro:include filename="package://..."/>: through the same resolver as the meshes.
-        if "://" in filename_spec:
-            resolution = resolver.resolve(filename_spec)
-            if resolution.path is not None:
-                return resolution.path
-        return original_include(filename_spec)
-
-    substitution_args._eval_find = find
-    xacro.abs_filename_spec = include
-    try:
-        yield
-    finally:
-        substitution_args._eval_find = original
-        xacro.abs_filename_spec = original_include
-
-
-def expand_xacro(path, resolver, mappings=None):
-    """The URDF text a ``.xacro`` file expands to (``$(find)`` through ``resolver``)."""
-    try:
-        import xacro
-    except ImportError:
-        raise OptionError("reading .xacro needs the xacro package, which is not installed", path=path,
-                          fix='pip install "massprops[robot]" (or expand it first: xacro FILE > robot.urdf)') from None
-    import contextlib
-    import io
-    with _find_through(resolver), contextlib.redirect_stderr(io.StringIO()) as said:
-        try:
-            doc = xacro.process_file(os.fspath(path), mappings=mappings or {})
-        except MassPropsError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - xacro raises many kinds; the edge wants one line
-            detail = " ".join(str(exc).split()) or type(exc).__name__
-            raise RobotFormatError(f"xacro failed: {detail}", path=path,
-                                   fix="run `xacro FILE` to see the full message") from None
-    del said
-    return doc.toxml(encoding="utf-8")
