@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import MeshGeometryError, WindingError
+from ..errors import MeshGeometryError
 from ..core import edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 
@@ -191,9 +191,12 @@ def without_repeated_faces(mesh, *, path=None):
 
 def _one_side(mesh, faces, path):
     """A two-sided export: one copy of each face, wound consistently and outward, if that closes."""
+    import trimesh
     n = mesh.vertices.shape[0]
-    oriented = _consistently_wound(faces)
-    if oriented is None or not edge_summary(oriented, n).balanced:
+    surface = trimesh.Trimesh(mesh.vertices, faces, process=False, validate=False)
+    trimesh.repair.fix_winding(surface)             # as --repair winds a surface (mesh/repair.py)
+    oriented = np.asarray(surface.faces, dtype=np.int64)
+    if not edge_summary(oriented, n).balanced:
         raise MeshGeometryError("the solid has zero volume: every face is cancelled by its reverse, and one "
                                 "copy of each does not close a surface (a two-sided sheet)", path=path,
                                 fix="a two-sided sheet needs {shell=THICKNESS}")
@@ -205,60 +208,6 @@ def _one_side(mesh, faces, path):
     return mesh.with_faces(oriented), checks, [
         f"every face is written twice, once each way (a two-sided export): integrated the solid that one copy of "
         f"each of the {faces.shape[0]} faces encloses"], None
-
-
-def _consistently_wound(faces):
-    """``faces`` with some turned so that neighbours cross their common edge in opposite directions, or None.
-
-    Fails (None) where an edge is shared by more than two faces, or a surface cannot be wound consistently.
-    """
-    from collections import deque
-    faces = np.array(faces, dtype=np.int64)
-    m = faces.shape[0]
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    key = np.sort(directed, axis=1)
-    order = np.lexsort((key[:, 1], key[:, 0]))
-    key = key[order]
-    same = np.all(key[1:] == key[:-1], axis=1)
-    if np.any(same[1:] & same[:-1]):
-        return None
-    first = order[:-1][same]
-    second = order[1:][same]
-    neighbours = [[] for _ in range(m)]
-    for x, y in zip((first // 3).tolist(), (second // 3).tolist()):
-        neighbours[x].append(y)
-        neighbours[y].append(x)
-    flip = np.full(m, -1, dtype=np.int64)
-
-    def direction(f, a, b):
-        row = faces[f]
-        k = int(np.flatnonzero(row == a)[0])
-        return 1 if row[(k + 1) % 3] == b else -1
-
-    for start in range(m):
-        if flip[start] >= 0:
-            continue
-        flip[start] = 0
-        queue = deque([start])
-        while queue:
-            f = queue.popleft()
-            row = faces[f][::-1] if flip[f] else faces[f]
-            for g in neighbours[f]:
-                common = [v for v in row.tolist() if v in faces[g]]
-                if len(common) != 2:
-                    return None
-                k = [int(np.flatnonzero(row == v)[0]) for v in common]
-                a, b = (common[0], common[1]) if (k[0] + 1) % 3 == k[1] else (common[1], common[0])
-                wanted = 1 if direction(g, b, a) == 1 else 0    # g must run b -> a
-                state = 0 if wanted else 1
-                if flip[g] < 0:
-                    flip[g] = state
-                    queue.append(g)
-                elif flip[g] != state:
-                    return None
-    out = faces.copy()
-    out[flip == 1] = out[flip == 1][:, ::-1]
-    return out
 
 
 def shell_six_volumes(vertices, faces, labels, n_shells):
@@ -364,9 +313,3 @@ def overlap_warning(solid, moments):
     return overlap, (f"{', '.join(solid.resolved)}: the solid is the region the surface winds around positively, "
                      f"each point counted once (the faces' signed volume leaves out {-overlap:.6g} of it, "
                      "checks.overlap)")
-
-
-def refuse_inside_out(count, n_shells, path):
-    raise WindingError(f"{count} of {n_shells} shells are wound inward but lie outside every other shell "
-                       "(a separate body turned inside out)", path=path,
-                       fix="pass {repair} to orient every shell outward")
