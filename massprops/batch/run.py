@@ -117,7 +117,7 @@ def default_jobs():
 
 def _one_line(text):
     # every kind of line break goes: a report record is one line, whatever a message quotes from a file
-    return printable(" ".join(filter(None, (part.strip() for part in text.splitlines()))))
+    return printable(text).strip()
 
 
 def error_message(exc, style="python"):

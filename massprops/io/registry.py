@@ -14,20 +14,12 @@ from .inputs import check_archive, check_input, check_no_holes
 __all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIONS", "UNSUPPORTED"]
 
 _READERS = {}
-_TEXT = set()
 
 
-def register_format(name, extensions, reader, *, text=False):
-    """Register ``reader(path) -> mesh`` for file names ending in any of ``extensions``.
-
-    ``text``: the format is text only, so a file with holes (NUL bytes) is refused before it is parsed.
-    """
+def register_format(name, extensions, reader):
+    """Register ``reader(path) -> mesh`` for file names ending in any of ``extensions``."""
     for ext in extensions:
         _READERS[ext.lower()] = (name, reader)
-        if text:
-            _TEXT.add(ext.lower())
-        else:
-            _TEXT.discard(ext.lower())
 
 
 def _extension(path):

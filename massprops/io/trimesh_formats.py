@@ -174,5 +174,4 @@ def read(path):
     return TriangleMesh.from_indexed(vertices, faces)
 
 
-register_format("trimesh", [".ply", ".glb", ".gltf"], read)
-register_format("trimesh", [".off"], read, text=True)
+register_format("trimesh", [".ply", ".glb", ".gltf", ".off"], read)
