@@ -200,9 +200,6 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
     solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
                    self_intersection=self_intersection, weights=weights)
     moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order, frame=solid.frame)
-    if solid.exact is not None:
-        from .mesh.shells import with_exact
-        moments = with_exact(moments, solid.exact, solid.exact_area2)
     warnings += solid.warnings
     moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)

@@ -21,10 +21,12 @@ module finds the faces that bound it:
    the faces that lie on the cell.  A piece bounds ``{w > 0}`` exactly when
    one side has ``w > 0`` and the other not; it is taken once (the lowest of
    coincident faces owns it), turned to face out of the solid.
-4. **Integrals.** Uncut pieces are whole input faces and go to the compiled
-   kernel with its bounds; cells are integrated from their exact rational
-   corners (no intersection vertex is rounded), each term to 2**-256 of the
-   frame's unit in integers, and added with one rounding.
+4. **Integrals.**  Uncut pieces are whole input faces; cut pieces are
+   triangulated cells whose new corners (the intersection points) are
+   rounded once, to nearest.  Both go to the compiled kernel with its
+   bounds, widened by the volume the rounded corners could sweep
+   (:func:`massprops.mesh.solid.swept_volume` with an apex: the cut pieces
+   need not share their corners, so each triangle is bounded on its own).
 
 Every decision is a sign of an exact integer expression.
 """
@@ -33,11 +35,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["Arrangement", "arrange"]
+from ..errors import MassPropsError
+
+__all__ = ["Arrangement", "ArrangementError", "arrange"]
 
 
 @dataclass(frozen=True)
@@ -48,14 +51,15 @@ class Arrangement:
     ----------
     faces : ndarray, shape (k, 3), int64
         Whole input faces that bound the solid, wound out of it.
-    exact : tuple
-        ``(det, first, second, error)``: the signed-tetrahedron sums (see
-        :mod:`massprops.core.moments`) of the cut pieces that bound the solid,
-        in the scaled coordinates of the geometry's frame, as Fractions
-        (``first`` a list of 3, ``second`` 3 × 3), each within ``error`` of
-        the exact rational sum.
-    area2 : float
-        About twice the area of those cut pieces.
+    pieces : ndarray, shape (c, 3), int64
+        Triangles of the cut pieces that bound the solid, wound out of it:
+        indices below ``n`` (the geometry's vertex count) are input vertices,
+        ``n + i`` is ``points[i]``.
+    points : ndarray, shape (q, 3), float64
+        The new corners (intersection points), each coordinate its exact
+        rational value rounded to nearest, in the geometry's scaled frame.
+    rounding : ndarray, shape (q, 3), float64
+        An upper bound on each coordinate's rounding (0 where it is exact).
     cut_faces, cells : int
         Faces that were cut, and the cells they were cut into.
     negative : bool
@@ -64,8 +68,9 @@ class Arrangement:
     """
 
     faces: np.ndarray
-    exact: tuple
-    area2: float
+    pieces: np.ndarray
+    points: np.ndarray
+    rounding: np.ndarray
     cut_faces: int
     cells: int
     negative: bool
@@ -73,6 +78,10 @@ class Arrangement:
 
 class _Degenerate(Exception):
     """A query point lies on a surface it must not lie on; another point is tried."""
+
+
+class ArrangementError(MassPropsError, ArithmeticError):
+    """No query point could be found off the other faces for some piece (never seen)."""
 
 
 def _sign(x):
@@ -125,6 +134,12 @@ class _Soup:
         self.low = corners.min(axis=1)
         self.high = corners.max(axis=1)
         self.scaled = scaled
+        # Every query's box margin (below) is at most this one: the columns may only add candidates.
+        self._reach = 1.0 + float(np.abs(scaled).max(initial=0.0))
+        self._margin = 2e-9 * self._reach
+        self._corners = corners
+        self._weights_float = weights.astype(np.float64)
+        self._columns = {}
 
     def point(self, v):
         """Vertex ``v`` as integers (3)."""
@@ -146,53 +161,146 @@ class _Soup:
 
     # -- winding numbers -----------------------------------------------------------------------
 
-    def winding(self, p, axis, sigma, plane_normal):
-        """The winding number at ``p + sigma (ε e1 + ε² e2)`` for an infinitesimal ε > 0.
+    def windings(self, queries):
+        """Winding numbers of many queries at once; None where a query point lies on another face.
 
-        ``p`` is homogeneous (integers, w > 0) and lies on a face of normal
-        ``plane_normal`` (or on none); e1, e2 are the axes after ``axis``.  The
-        ray from the perturbed point runs along +``axis``; each face it crosses
-        ahead counts its weight, + when it leaves through the face's front.
-        Faces in the query's own plane are crossed or not by the perturbation
-        alone.  Raises :class:`_Degenerate` when ``p`` lies on another face.
+        Each query is ``(p, axis, sigma, plane_normal)``: the winding number at
+        ``p + sigma (ε e1 + ε² e2)`` for an infinitesimal ε > 0, where ``p`` is
+        homogeneous (integers, w > 0) and lies on a face of normal
+        ``plane_normal`` (or on none) and e1, e2 are the axes after ``axis``.
+        The ray from the perturbed point runs along +``axis``; each face it
+        crosses ahead counts its weight, + when it leaves through the face's
+        front.  Faces in the query's own plane are crossed or not by the
+        perturbation alone.  The faces near each ray are found in floating
+        point with margins (:meth:`_near`); every count is exact.
         """
+        totals = [0] * len(queries)
+        for index, decided, faces in self._near(queries):
+            p, axis, sigma, plane_normal = queries[index]
+            try:
+                totals[index] = decided + sum(self._ahead(t, p, axis, sigma, plane_normal) for t in faces)
+            except _Degenerate:
+                totals[index] = None
+        return totals
+
+    def _ahead(self, t, p, axis, sigma, plane_normal):
+        """Weight face ``t`` adds to the winding number of the query (0 when the ray misses it)."""
         a1, a2 = (axis + 1) % 3, (axis + 2) % 3
         x, y, z, w = p
-        unit = math.ldexp(1.0, self.exponent)
-        pf = (x / w * unit, y / w * unit, z / w * unit)      # the boxes are in scaled coordinates
-        margin = 1e-9 * (1.0 + max(abs(pf[0]), abs(pf[1]), abs(pf[2])))
-        low, high = self.low, self.high
-        near = np.flatnonzero((low[:, a1] <= pf[a1] + margin) & (high[:, a1] >= pf[a1] - margin)
-                              & (low[:, a2] <= pf[a2] + margin) & (high[:, a2] >= pf[a2] - margin)
-                              & (high[:, axis] >= pf[axis] - margin))
+        (a, b, c), normal, offset = self.plane(t)
+        facing = _sign(normal[axis])
+        level = _dot(normal, (x, y, z)) - offset * w        # sign of n · (p - a), times w > 0
+        if level == 0 and _cross(normal, plane_normal) != (0, 0, 0):
+            drop = max(range(3), key=lambda k: abs(normal[k]))
+            if self._holds(a, b, c, p, (drop + 1) % 3, (drop + 2) % 3):
+                raise _Degenerate          # p on another face: which side it is on is not determined
+        if facing == 0:
+            return 0
         px, py = p[a1], p[a2]
-        total = 0
-        for t in near.tolist():
-            (a, b, c), normal, offset = self.plane(t)
-            facing = _sign(normal[axis])
-            level = _dot(normal, (x, y, z)) - offset * w        # sign of n · (p - a), times w > 0
-            if level == 0 and _cross(normal, plane_normal) != (0, 0, 0):
-                drop = max(range(3), key=lambda k: abs(normal[k]))
-                if self._holds(a, b, c, p, (drop + 1) % 3, (drop + 2) % 3):
-                    raise _Degenerate          # p on another face: which side it is on is not determined
-            if facing == 0:
-                continue
-            inside = True
-            for u, v in ((a, b), (b, c), (c, a)):
-                o = (w * u[a1] - px) * (w * v[a2] - py) - (w * u[a2] - py) * (w * v[a1] - px)
-                if o == 0:
-                    o = sigma * (u[a2] - v[a2]) or sigma * (v[a1] - u[a1])
-                if _sign(o) != facing:
-                    inside = False
-                    break
-            if not inside:
-                continue
-            side = _sign(level) or sigma * (_sign(normal[a1]) or _sign(normal[a2]))
-            if side == 0:
-                raise _Degenerate
-            if -side * facing > 0:                               # the crossing lies ahead of p
-                total += int(self.weights[t]) * facing
-        return total
+        for u, v in ((a, b), (b, c), (c, a)):
+            o = (w * u[a1] - px) * (w * v[a2] - py) - (w * u[a2] - py) * (w * v[a1] - px)
+            if o == 0:
+                o = sigma * (u[a2] - v[a2]) or sigma * (v[a1] - u[a1])
+            if _sign(o) != facing:
+                return 0
+        side = _sign(level) or sigma * (_sign(normal[a1]) or _sign(normal[a2]))
+        if side == 0:
+            raise _Degenerate
+        return int(self.weights[t]) * facing if -side * facing > 0 else 0     # the crossing lies ahead of p
+
+    _CHUNK = 4096
+
+    def _near(self, queries):
+        """``(query index, decided, faces)`` for every query: the faces its ray may meet or its point
+        may lie on, and the weight already counted for faces decided in floating point.
+
+        A face is left out when its box (widened by a margin far above the
+        rounding of the query point) misses the ray, or when two of its edges,
+        seen along the ray, certainly put the point on opposite sides
+        (:meth:`_crossed`): then it neither holds the point nor is crossed.  A
+        face whose edges certainly put the point strictly inside, and whose
+        plane the ray certainly meets ahead of or behind the point, is counted
+        here; every other face is left to the exact test.
+        """
+        unit = math.ldexp(1.0, self.exponent)
+        for axis in range(3):
+            mine = [k for k, q in enumerate(queries) if q[1] == axis]
+            a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+            for start in range(0, len(mine), self._CHUNK):
+                chunk = mine[start:start + self._CHUNK]
+                # Each coordinate correctly rounded (int / int), then scaled by a power of two: exact.
+                pf = np.array([(p[0] / p[3], p[1] / p[3], p[2] / p[3]) for p, *_ in (queries[k] for k in chunk)],
+                              dtype=np.float64) * unit
+                query, faces = self._column(axis).pairs(pf[:, a1], pf[:, a2])
+                margin = 1e-9 * (1.0 + np.abs(pf).max(axis=1))[query]
+                point = pf[query]
+                low, high = self.low[faces], self.high[faces]
+                keep = ((low[:, a1] <= point[:, a1] + margin) & (high[:, a1] >= point[:, a1] - margin)
+                        & (low[:, a2] <= point[:, a2] + margin) & (high[:, a2] >= point[:, a2] - margin)
+                        & (high[:, axis] >= point[:, axis] - margin))
+                query, faces, point = query[keep], faces[keep], point[keep]
+                crossed = self._crossed(faces, point, axis)
+                keep = np.isnan(crossed)
+                decided = np.bincount(query, weights=np.where(keep, 0.0, crossed),
+                                      minlength=len(chunk)).astype(np.int64).tolist()
+                query, faces = query[keep], faces[keep]
+                bounds = np.searchsorted(query, np.arange(len(chunk) + 1))
+                faces = faces.tolist()
+                for k, index in enumerate(chunk):
+                    yield index, decided[k], faces[bounds[k]:bounds[k + 1]]
+
+    _EDGES = np.array([1, 2, 0])
+
+    def _crossed(self, faces, points, axis):
+        """Per (face, point) pair: the weight the ray adds, 0 when it certainly misses, NaN when undecided.
+
+        Points are the query points rounded to nearest (relative error at most
+        u = 2**-53) and corners are exact.  Each computed edge value
+        ``o = x₁ y₂ - y₁ x₂`` is within ``u (R (|x₁|+|x₂|+|y₁|+|y₂|) + 5 (|x₁ y₂| + |y₁ x₂|))``
+        plus terms of order u² of the exact one (R bounds every coordinate);
+        the bound ``B`` used is about a thousand times that.  Two edges beyond
+        ``±B`` of opposite signs: the point is strictly outside the face seen
+        along the ray, so the face neither holds it nor is crossed.  Three of
+        one sign: strictly inside, and the face faces that way.  Then the
+        plane's height over the point, ``Σ λᵢ dᵢ`` with ``λᵢ = oᵢ / Σ o``,
+        has relative error at most ``2 max(B/|o|)`` plus rounding in each term;
+        beyond that bound the ray certainly meets the plane ahead (counted) or
+        behind (not), and the point is not on the face.
+        """
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        corners = self._corners[faces]
+        x = corners[:, :, a1] - points[:, a1, None]
+        y = corners[:, :, a2] - points[:, a2, None]
+        xn, yn = x[:, self._EDGES], y[:, self._EDGES]
+        first, second = x * yn, y * xn
+        value = first - second                         # value[:, k]: edge from corner k to k+1
+        reach = self._reach
+        bound = 1e-13 * (reach * (np.abs(x) + np.abs(y) + np.abs(xn) + np.abs(yn))
+                         + np.abs(first) + np.abs(second) + reach * reach * 1e-13)
+        positive, negative = value > bound, value < -bound
+        out = np.full(faces.shape[0], np.nan)
+        out[positive.any(axis=1) & negative.any(axis=1)] = 0.0
+        inside = positive.all(axis=1) | negative.all(axis=1)
+        if inside.any():
+            v = value[inside]
+            # The edge opposite corner k is the one from k+1 to k+2: λ_k = value[:, k+1] / Σ value.
+            weight = v[:, self._EDGES] / v.sum(axis=1)[:, None]
+            relative = (bound[inside] / np.abs(v)).max(axis=1)
+            height = corners[inside, :, axis] - points[inside, axis, None]
+            hit = (weight * height).sum(axis=1)
+            error = (np.abs(weight) * (np.abs(height) * (2.0 * relative[:, None] + 1e-13) + 1e-13 * reach)).sum(axis=1)
+            facing = np.where(positive[inside].all(axis=1), 1.0, -1.0)
+            sure = np.abs(hit) > error
+            counted = np.where(hit > 0, facing * self._weights_float[faces[inside]], 0.0)
+            out[np.flatnonzero(inside)[sure]] = counted[sure]
+        return out
+
+    def _column(self, axis):
+        """Faces bucketed by their boxes seen along ``axis`` (built once per axis)."""
+        columns = self._columns.get(axis)
+        if columns is None:
+            columns = self._columns[axis] = _Columns(self.low, self.high, axis, self._margin)
+        return columns
 
     @staticmethod
     def _holds(a, b, c, p, a1, a2):
@@ -203,6 +311,56 @@ class _Soup:
             o = (w * u[a1] - p[a1]) * (w * v[a2] - p[a2]) - (w * u[a2] - p[a2]) * (w * v[a1] - p[a1])
             signs.add(_sign(o))
         return not (1 in signs and -1 in signs)
+
+
+class _Columns:
+    """Faces bucketed by their boxes seen along one axis: a uniform grid of columns (CSR lists).
+
+    A face is listed in every column its box, widened by ``margin``, meets;
+    columns are found with floating-point operations, which are monotone, so a
+    point inside a widened box always falls in one of that box's columns.
+    """
+
+    def __init__(self, low, high, axis, margin):
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        lo = low[:, [a1, a2]] - margin
+        hi = high[:, [a1, a2]] + margin
+        self.origin = lo.min(axis=0) if lo.size else np.zeros(2)
+        extent = (hi.max(axis=0) - self.origin) if lo.size else np.ones(2)
+        count = lo.shape[0]
+        side = max(1, int(math.sqrt(count / 4.0)))
+        while True:
+            self.size = np.maximum(extent / side, np.finfo(float).tiny)
+            first = self._index(lo, side)
+            last = self._index(hi, side)
+            spans = (last - first + 1)
+            per_face = spans[:, 0] * spans[:, 1]
+            if side == 1 or per_face.sum() <= 16 * count:
+                break
+            side = max(1, side // 2)                # large faces: fewer, larger columns
+        self.side = side
+        owner = np.repeat(np.arange(count), per_face)
+        offset = np.arange(owner.size) - np.repeat(np.cumsum(per_face) - per_face, per_face)
+        width = spans[owner, 1]
+        cx = first[owner, 0] + offset // width
+        cy = first[owner, 1] + offset % width
+        cell = cx * side + cy
+        order = np.argsort(cell, kind="stable")
+        self.faces = owner[order]
+        self.starts = np.searchsorted(cell[order], np.arange(side * side + 1))
+
+    def _index(self, points, side):
+        return np.clip(np.floor((points - self.origin) / self.size), 0, side - 1).astype(np.int64)
+
+    def pairs(self, x, y):
+        """``(query, face)`` index pairs (sorted by query): the faces listed in each point's column."""
+        i = np.clip(np.floor((x - self.origin[0]) / self.size[0]), 0, self.side - 1).astype(np.int64)
+        j = np.clip(np.floor((y - self.origin[1]) / self.size[1]), 0, self.side - 1).astype(np.int64)
+        cell = i * self.side + j
+        begin, count = self.starts[cell], self.starts[cell + 1] - self.starts[cell]
+        query = np.repeat(np.arange(cell.size), count)
+        position = np.arange(query.size) - np.repeat(np.cumsum(count) - count, count) + begin[query]
+        return query, self.faces[position]
 
 
 # -- intersections of two faces ----------------------------------------------------------------
@@ -286,21 +444,40 @@ def _split(cell, segment, i, j):
     return left, right
 
 
+def _box(points, i, j):
+    """The box (low_i, high_i, low_j, high_j) of homogeneous points on axes i, j, widened past any rounding."""
+    xs = [p[i] / p[3] for p in points]
+    ys = [p[j] / p[3] for p in points]
+    low_x, high_x, low_y, high_y = min(xs), max(xs), min(ys), max(ys)
+    pad = 1e-9 * (abs(low_x) + abs(high_x) + abs(low_y) + abs(high_y)) + 1e-300
+    return low_x - pad, high_x + pad, low_y - pad, high_y + pad
+
+
+def _apart(a, b):
+    return a[1] < b[0] or b[1] < a[0] or a[3] < b[2] or b[3] < a[2]
+
+
 def _cells(corners, segments, normal):
-    """The convex cells a face is cut into by its segments."""
+    """The convex cells a face is cut into by its segments.
+
+    A segment whose box (each coordinate correctly rounded, then widened)
+    misses a cell's box misses the cell: the exact test is skipped.
+    """
     drop = max(range(3), key=lambda k: abs(normal[k]))
     i, j = (drop + 1) % 3, (drop + 2) % 3
-    cells = [[(*q, 1) for q in corners]]
+    first = [(*q, 1) for q in corners]
+    cells = [(first, _box(first, i, j))]
     for segment in segments:
+        reach = _box(segment, i, j)
         out = []
-        for cell in cells:
-            halves = _split(cell, segment, i, j)
+        for cell, box in cells:
+            halves = None if _apart(box, reach) else _split(cell, segment, i, j)
             if halves is None:
-                out.append(cell)
+                out.append((cell, box))
             else:
-                out.extend(halves)
+                out.extend((half, _box(half, i, j)) for half in halves)
         cells = out
-    return cells, (i, j)
+    return [cell for cell, _ in cells], (i, j)
 
 
 def _inner_point(cell, weights=(1, 1, 1)):
@@ -318,100 +495,92 @@ def _contains(corners, p, i, j):
     return all(sense * _orient2(u, v, p, i, j) > 0 for u, v in ((a, b), (b, c), (c, a)))
 
 
-# -- exact integrals -----------------------------------------------------------------------------
+class _Corners:
+    """Corners of the kept pieces: input vertices by index, intersection points numbered after them."""
 
-class _Sums:
-    """Signed-tetrahedron sums (det, first, second) of triangles with homogeneous corners, in fixed point.
+    def __init__(self, soup):
+        self.soup = soup
+        self.vertices = {(*q, 1): v for v, q in soup._points.items()}
+        self.count = soup.scaled.shape[0]
+        self.new = {}
 
-    Each term, a rational, is taken to ``2**-FRACTION_BITS`` of the frame's
-    scaled unit (rounded down, in integers), so the sums stay integers; every
-    term adds less than one such unit of error, and :attr:`error` counts them.
-    """
+    def index(self, q):
+        found = self.vertices.get(q)
+        if found is None:
+            found = self.new.setdefault(q, self.count + len(self.new))
+        return found
 
-    FRACTION_BITS = 256
+    def add_polygon(self, cell, triangles, outward):
+        ids = [self.index(q) for q in (cell if outward else cell[::-1])]
+        triangles.extend((ids[0], ids[k], ids[k + 1]) for k in range(1, len(ids) - 1))
 
-    def __init__(self, exponent):
-        self.exponent = exponent           # grid unit = 2**exponent scaled units
-        self.det = 0
-        self.first = [0, 0, 0]
-        self.second = [[0] * 3 for _ in range(3)]
-        self.terms = 0
-        self.area2 = 0.0
+    def points(self):
+        """The new corners in scaled coordinates, each rounded to nearest, and each coordinate's rounding error.
 
-    def _fixed(self, numerator, denominator, power):
-        """floor(numerator / denominator · 2**(power · exponent) · 2**FRACTION_BITS)."""
-        shift = self.FRACTION_BITS + power * self.exponent
-        if shift >= 0:
-            return (numerator << shift) // denominator
-        return numerator // (denominator << -shift)
-
-    def add_polygon(self, cell, sign):
-        for k in range(1, len(cell) - 1):
-            self._add(cell[0], cell[k], cell[k + 1], sign)
-
-    def _add(self, p, q, r, sign):
-        wp, wq, wr = p[3], q[3], r[3]
-        d = wp * wq * wr
-        a = [p[k] * wq * wr for k in range(3)]
-        b = [q[k] * wp * wr for k in range(3)]
-        c = [r[k] * wp * wq for k in range(3)]
-        det = sign * (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                      + a[2] * (b[0] * c[1] - b[1] * c[0]))
-        if det == 0:
-            return
-        s = [a[k] + b[k] + c[k] for k in range(3)]
-        d3 = d * d * d
-        d4 = d3 * d
-        d5 = d4 * d
-        self.det += self._fixed(det, d3, 3)
-        for k in range(3):
-            self.first[k] += self._fixed(det * s[k], d4, 4)
-            for m in range(k, 3):
-                value = self._fixed(det * (s[k] * s[m] + a[k] * a[m] + b[k] * b[m] + c[k] * c[m]), d5, 5)
-                self.second[k][m] += value
-                if m != k:
-                    self.second[m][k] += value
-        self.terms += 1
-        u = [(b[k] - a[k]) / d for k in range(3)]
-        v = [(c[k] - a[k]) / d for k in range(3)]
-        n = _cross(u, v)
-        self.area2 += math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) * math.ldexp(1.0, 2 * self.exponent)
-
-    def exact(self):
-        """``(det, first, second, error)``: the sums as Fractions (scaled units) and a bound on each one's error."""
-        unit = Fraction(1, 1 << self.FRACTION_BITS)
-        return (self.det * unit, [x * unit for x in self.first], [[x * unit for x in row] for row in self.second],
-                self.terms * unit)
+        ``x / w`` of two ints is correctly rounded; times a power of two it
+        stays exact.  The error ``|x/w - r|`` is found exactly in integers and
+        rounded up.
+        """
+        unit = math.ldexp(1.0, self.soup.exponent)
+        values, errors = [], []
+        for q in self.new:
+            w = q[3]
+            for x in q[:3]:
+                r = x / w
+                numerator, denominator = r.as_integer_ratio()
+                gap = abs(x * denominator - numerator * w)
+                values.append(r)
+                errors.append(0.0 if gap == 0 else math.nextafter(gap / (w * denominator), math.inf))
+        shape = (-1, 3)
+        return (np.array(values, dtype=np.float64).reshape(shape) * unit,
+                np.array(errors, dtype=np.float64).reshape(shape) * unit)
 
 
 # -- the arrangement -----------------------------------------------------------------------------
 
-def _query(soup, t, p, normal):
-    """Winding number just in front of face ``t``'s plane at ``p``."""
+def _ray(normal):
+    """``(axis, sigma)``: the ray for a query on a plane of ``normal``: along the axis it leans on least."""
     axis = min(range(3), key=lambda k: abs(normal[k]))
     a1, a2 = (axis + 1) % 3, (axis + 2) % 3
-    sigma = _sign(normal[a1]) or _sign(normal[a2])
-    return soup.winding(p, axis, sigma, normal)
+    return axis, _sign(normal[a1]) or _sign(normal[a2])
 
 
 _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
-def _label_cell(soup, t, cell, normal, partners, i, j):
-    """``(w in front, net weight on the cell, owned)`` for a cell of face ``t``."""
+def _label_cells(soup, pieces):
+    """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
+
+    All pieces' rays are counted together (:meth:`_Soup.windings`); a piece
+    whose inner point lies on another face is asked again at another inner
+    point.
+    """
+    labels = [None] * len(pieces)
+    pending = list(range(len(pieces)))
     for weights in _TRIES:
-        p = _inner_point(cell, weights)
-        net, owned = int(soup.weights[t]), True
-        for u in partners:
-            corners_u, normal_u, _ = soup.plane(u)
-            if _contains(corners_u, p, i, j):
-                net += int(soup.weights[u]) * _sign(_dot(normal_u, normal))
-                owned = owned and u > t
-        try:
-            return _query(soup, t, p, normal), net, owned
-        except _Degenerate:
-            continue
-    raise _Degenerate
+        if not pending:
+            break
+        queries, nets = [], []
+        for k in pending:
+            t, cell, normal, partners, i, j = pieces[k]
+            p = _inner_point(cell, weights)
+            net, owned = int(soup.weights[t]), True
+            for u in partners:
+                corners_u, normal_u, _ = soup.plane(u)
+                if _contains(corners_u, p, i, j):
+                    net += int(soup.weights[u]) * _sign(_dot(normal_u, normal))
+                    owned = owned and u > t
+            queries.append((p, *_ray(normal), normal))
+            nets.append((net, owned))
+        fronts = soup.windings(queries)
+        for k, front, (net, owned) in zip(pending, fronts, nets):
+            if front is not None:
+                labels[k] = (front, net, owned)
+        pending = [k for k in pending if labels[k] is None]
+    if pending:
+        raise ArrangementError(f"{len(pending)} pieces of crossing faces lie on other faces at every point tried",
+                               fix="report this mesh: the arrangement could not label it")
+    return labels
 
 
 def _patches(faces, cut):
@@ -469,37 +638,38 @@ def arrange(geometry, faces, weights, pairs):
             segments.setdefault(u, []).append(segment)
     cut = np.zeros(m, dtype=bool)
     cut[list(segments)] = True
-    sums = _Sums(soup.exponent)
-    negative = False
-    n_cells = 0
+    pieces = []
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
-        n_cells += len(cells)
-        for cell in cells:
-            front, net, owned = _label_cell(soup, t, cell, normal, partners.get(t, ()), i, j)
-            back = front + net
-            negative = negative or front < 0 or back < 0
-            if owned and (front > 0) != (back > 0):
-                sums.add_polygon(cell, 1 if back > 0 else -1)
-    kept = []
+        pieces.extend((t, cell, normal, partners.get(t, ()), i, j) for cell in cells)
+    n_cells = len(pieces)
     uncut = np.flatnonzero(~cut)
     if uncut.size:
-        labels = _patches(faces, cut)
+        patch = _patches(faces, cut)
         first = {}
         for t in uncut.tolist():
-            first.setdefault(int(labels[t]), t)
-        side = {}
-        for label, t in first.items():
+            first.setdefault(int(patch[t]), t)
+        for t in first.values():         # one piece per patch: the whole face, asked at its centroid first
             corners, normal, _ = soup.plane(t)
-            a, b, c = corners
-            p = _reduced(a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2], 3)
-            front = _query(soup, t, p, normal)
-            back = front + int(weights[t])
-            negative = negative or front < 0 or back < 0
-            side[label] = 0 if (front > 0) == (back > 0) else (1 if back > 0 else -1)
-        signs = np.array([side[int(label)] for label in labels[uncut]], dtype=np.int64)
+            pieces.append((t, [(*q, 1) for q in corners], normal, (), 0, 1))
+    kept_corners = _Corners(soup)
+    triangles = []
+    negative = False
+    side = {}
+    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces)):
+        back = front + net
+        negative = negative or front < 0 or back < 0
+        t, cell = pieces[k][:2]
+        if k >= n_cells:
+            side[int(patch[t])] = 0 if (front > 0) == (back > 0) else (1 if back > 0 else -1)
+        elif owned and (front > 0) != (back > 0):
+            kept_corners.add_polygon(cell, triangles, back > 0)
+    kept = []
+    if uncut.size:
+        signs = np.array([side[int(label)] for label in patch[uncut]], dtype=np.int64)
         kept_faces = faces[uncut]
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
-    return Arrangement(out, sums.exact(), sums.area2, int(cut.sum()), n_cells, negative)
+    pieces = np.array(triangles, dtype=np.int64).reshape(-1, 3)
+    return Arrangement(out, pieces, *kept_corners.points(), int(cut.sum()), n_cells, negative)

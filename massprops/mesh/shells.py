@@ -10,7 +10,6 @@ the arrangement (:mod:`massprops.mesh.arrangement`) finds the solid.
 from __future__ import annotations
 
 import math
-from fractions import Fraction
 
 import numpy as np
 
@@ -184,10 +183,37 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
         warnings.append("some regions are wound inward (a negative winding number, as inside a surface turned "
                         "inside out): they are not part of the solid")
     checks = {"self_intersection": "resolved" if crossing else "none"}
-    return Solid(mesh.with_faces(arranged.faces), checks, tuple(warnings), _snapped(geometry, vertices, faces),
-                 flipped=flipped, resolved=tuple(resolved), naive_six=(float(six.sum()), float(bound.sum())),
-                 frame=geometry.frame, exact=arranged.exact, exact_area2=arranged.area2,
+    combined, swept = _with_pieces(geometry, vertices, arranged)
+    return Solid(mesh.with_faces(np.vstack([arranged.faces, arranged.pieces]), combined), checks, tuple(warnings),
+                 _snapped(geometry, vertices, faces) + swept, flipped=flipped, resolved=tuple(resolved),
+                 naive_six=(float(six.sum()), float(bound.sum())), frame=geometry.frame,
                  source=mesh.with_faces(faces))
+
+
+def _with_pieces(geometry, vertices, arranged):
+    """The vertices with the cut pieces' new corners appended (mesh units), and the volume their rounding may sweep.
+
+    A new corner is its exact value rounded to nearest in the scaled frame
+    (its error is known, :attr:`Arrangement.rounding`), then moved to mesh
+    units (times a power of two, exact) and added to the frame's reference:
+    that addition's error is found exactly (Knuth's two-sum), so a corner
+    that lands on the grid of the input moves by nothing.
+    """
+    if arranged.points.shape[0] == 0:
+        return vertices, 0.0
+    frame = geometry.frame
+    power = math.ldexp(1.0, frame.scale_exp)
+    offset = arranged.points * power
+    reference = np.asarray(frame.reference, dtype=np.float64)
+    points = reference + offset
+    back = points - reference
+    added = np.abs((reference - (points - back)) + (offset - back))      # two-sum: the addition's exact error
+    moved = np.linalg.norm(arranged.rounding * power + added, axis=1) * (1 + 1e-9)
+    combined = np.vstack([vertices, points])
+    n = vertices.shape[0]
+    swept = swept_volume(combined, arranged.pieces, np.arange(n, n + points.shape[0]), moved,
+                         apex=np.asarray(frame.reference, dtype=np.float64))
+    return combined, swept
 
 
 def _flat_shells(geometry, faces, labels, shells):
@@ -210,29 +236,7 @@ def _flat_shells(geometry, faces, labels, shells):
 
 
 def _empty(arranged):
-    return arranged.faces.size == 0 and arranged.exact[0] == 0
-
-
-def with_exact(moments, exact, area2):
-    """``moments`` plus sums ``(det, first, second, error)`` (Fractions, same frame, each within ``error``).
-
-    Each sum's bound grows by ``error`` and the rounding of that one addition.
-    """
-    from dataclasses import replace
-
-    def added(value, extra):
-        total = Fraction(float(value)) + extra
-        rounded = float(total)
-        return rounded, math.nextafter(float(abs(Fraction(rounded) - total) + exact[3]), math.inf)
-
-    det_sum, det_round = added(moments.det_sum, exact[0])
-    first, first_round = zip(*(added(moments.first[k], exact[1][k]) for k in range(3)))
-    second = [[added(moments.second[k, j], exact[2][k][j]) for j in range(3)] for k in range(3)]
-    return replace(moments, det_sum=det_sum, det_error=moments.det_error + det_round,
-                   first=np.array(first), first_error=moments.first_error + max(first_round),
-                   second=np.array([[x[0] for x in row] for row in second]),
-                   second_error=moments.second_error + max(x[1] for row in second for x in row),
-                   area2=moments.area2 + area2)
+    return arranged.faces.size == 0 and arranged.pieces.size == 0
 
 
 def _zero_shells(vertices, faces, labels, six, bound):

@@ -73,14 +73,8 @@ class Solid:
     frame : Frame or None
         The integration frame of ``mesh.vertices`` (:func:`massprops.core.frame.frame_of`) when the
         checks already found it.
-    exact : tuple or None
-        Where faces were cut (:mod:`massprops.mesh.arrangement`): the exact sums
-        ``(det, first, second)`` of the cut pieces, in ``frame``'s scaled
-        coordinates, to add to the integrals of ``mesh``; ``exact_area2``
-        about twice their area.
     source : TriangleMesh or None
-        The closed soup the solid was found from, when ``mesh`` alone is not
-        closed (cut pieces are in ``exact``).
+        The closed soup the solid was found from, when ``mesh`` holds cut pieces.
     """
 
     mesh: object
@@ -92,8 +86,6 @@ class Solid:
     resolved: tuple = ()
     naive_six: tuple = (0.0, 0.0)
     frame: object = None
-    exact: tuple | None = None
-    exact_area2: float = 0.0
     source: object = None
 
 
@@ -227,13 +219,22 @@ def shell_six_volumes(vertices, faces, labels, n_shells):
     return sums * factor, bounds * factor
 
 
-def swept_volume(points, faces, moved_vertices, moved):
+def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     """A bound on the volume swept when vertices ``moved_vertices`` move by at most ``moved`` each.
 
     Moving vertex v by δ_v sweeps, across each triangle around it, a
     tetrahedron of volume at most δ_v · area / 3.  Moving the vertices one
     after another, a triangle's area grows by at most δ · perimeter + δ² with
     δ the largest move, so its enlarged area covers every order.
+
+    That holds where the triangles around a moved vertex all move it (a
+    closed surface stays closed).  Where they need not (``apex`` given: cut
+    pieces whose corners lie on other pieces' edges), each triangle's signed
+    tetrahedra from ``apex`` also change by the cones from ``apex`` over the
+    walls its edges sweep: edge (a, b) sweeps a wall of area at most
+    ``(|ab| + δ) (δ_a + δ_b)``, and its cone at most that times the wall's
+    farthest distance from ``apex``, over 3.  Walls of edges used once each
+    way cancel; the others are added.
 
     Parameters
     ----------
@@ -242,6 +243,9 @@ def swept_volume(points, faces, moved_vertices, moved):
     faces : ndarray, shape (m, 3), int
     moved_vertices : ndarray of int, moved : ndarray of float
         Which vertices moved, and an upper bound on each one's move.
+    apex : ndarray, shape (3,), optional
+        The point the signed tetrahedra are taken from, when the moved
+        vertices may lie on other triangles' edges without being their corners.
 
     Returns
     -------
@@ -257,7 +261,31 @@ def swept_volume(points, faces, moved_vertices, moved):
     perimeter = np.linalg.norm(b - a, axis=1) + np.linalg.norm(c - b, axis=1) + np.linalg.norm(a - c, axis=1)
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    return float(np.sum(delta[faces[touched]].sum(axis=1) * enlarged)) / 3.0 * (1 + 1e-9)
+    total = float(np.sum(delta[faces[touched]].sum(axis=1) * enlarged)) / 3.0
+    if apex is not None:
+        total += _unmatched_walls(points, faces[touched], delta, largest, apex)
+    return total * (1 + 1e-9)
+
+
+def _unmatched_walls(points, faces, delta, largest, apex):
+    """Cones from ``apex`` over the walls of moved edges that no reversed edge cancels (see swept_volume).
+
+    An edge used once each way by two triangles sweeps one wall twice, with
+    opposite signs: its cones cancel exactly.  Only the surplus of each
+    directed edge over its reverse counts.
+    """
+    start = faces.reshape(-1)
+    end = faces[:, [1, 2, 0]].reshape(-1)
+    n = np.int64(points.shape[0])
+    keys, counts = np.unique(start * n + end, return_counts=True)
+    reverse = (keys % n) * n + keys // n
+    at = np.clip(np.searchsorted(keys, reverse), 0, keys.size - 1)
+    surplus = counts - np.where(keys[at] == reverse, counts[at], 0)
+    keep = surplus > 0
+    i, j, surplus = keys[keep] // n, keys[keep] % n, surplus[keep]
+    wall = (np.linalg.norm(points[j] - points[i], axis=1) + largest) * (delta[i] + delta[j])
+    reach = np.maximum(np.linalg.norm(points[i] - apex, axis=1), np.linalg.norm(points[j] - apex, axis=1)) + largest
+    return float(np.sum(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
 
 
 def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
