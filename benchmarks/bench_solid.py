@@ -103,7 +103,12 @@ def _peers(mesh):
     try:
         import trueform as tf
         soup = tf.Mesh(np.ascontiguousarray(mesh.faces, dtype=np.int32), np.ascontiguousarray(mesh.vertices))
-        out["trueform arrangement"] = _best(lambda: tf.mesh_arrangements(soup), 1)
+        # mesh_arrangements takes two meshes or more: the soup (cut against itself, within=True) and a
+        # tetrahedron far away that meets nothing.  It splits faces; it does not label the solid.
+        far = tf.Mesh(np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int32),
+                      np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+                      + 10.0 * (1.0 + np.abs(mesh.vertices).max()))
+        out["trueform arrangement"] = _best(lambda: tf.mesh_arrangements([soup, far], within=True), 1)
     except Exception:                                            # noqa: BLE001
         pass
     return out

@@ -231,7 +231,7 @@ class _Soup:
                 # Each coordinate correctly rounded (int / int), then scaled by a power of two: exact.
                 pf = np.array([(p[0] / p[3], p[1] / p[3], p[2] / p[3]) for p, *_ in (queries[k] for k in chunk)],
                               dtype=np.float64) * unit
-                query, faces = self._column(axis).pairs(pf[:, a1], pf[:, a2])
+                query, faces = self._column(axis, len(mine)).pairs(pf[:, a1], pf[:, a2])
                 margin = 1e-9 * (1.0 + np.abs(pf).max(axis=1))[query]
                 point = pf[query]
                 low, high = self.low[faces], self.high[faces]
@@ -295,11 +295,11 @@ class _Soup:
             out[np.flatnonzero(inside)[sure]] = counted[sure]
         return out
 
-    def _column(self, axis):
-        """Faces bucketed by their boxes seen along ``axis`` (built once per axis)."""
+    def _column(self, axis, queries):
+        """Faces bucketed by their boxes seen along ``axis`` (built once per axis, for about ``queries`` rays)."""
         columns = self._columns.get(axis)
         if columns is None:
-            columns = self._columns[axis] = _Columns(self.low, self.high, axis, self._margin)
+            columns = self._columns[axis] = _Columns(self.low, self.high, axis, self._margin, queries)
         return columns
 
     @staticmethod
@@ -321,14 +321,15 @@ class _Columns:
     point inside a widened box always falls in one of that box's columns.
     """
 
-    def __init__(self, low, high, axis, margin):
+    def __init__(self, low, high, axis, margin, queries):
         a1, a2 = (axis + 1) % 3, (axis + 2) % 3
         lo = low[:, [a1, a2]] - margin
         hi = high[:, [a1, a2]] + margin
         self.origin = lo.min(axis=0) if lo.size else np.zeros(2)
         extent = (hi.max(axis=0) - self.origin) if lo.size else np.ones(2)
         count = lo.shape[0]
-        side = max(1, int(math.sqrt(count / 4.0)))
+        # About four columns a ray (listing faces costs about what scanning them would), at most 256 a side.
+        side = max(1, min(int(math.sqrt(count / 4.0)), int(2 * math.sqrt(queries)) + 1, 256))
         while True:
             self.size = np.maximum(extent / side, np.finfo(float).tiny)
             first = self._index(lo, side)
@@ -345,7 +346,7 @@ class _Columns:
         cx = first[owner, 0] + offset // width
         cy = first[owner, 1] + offset % width
         cell = cx * side + cy
-        order = np.argsort(cell, kind="stable")
+        order = np.argsort(cell.astype(np.uint16), kind="stable")         # below 2**16 columns: a radix sort
         self.faces = owner[order]
         self.starts = np.searchsorted(cell[order], np.arange(side * side + 1))
 
