@@ -147,14 +147,15 @@ def props(models, output_format, jobs, **kwargs):
 @click.option("--diagnosis-rtol", type=float, default=0.02, show_default=True,
               help="How close a diagnosis's transformed tensor must come to the declared one.")
 @click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "csv", "junit")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
 def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
           jobs, **kwargs):
     """Check each link's declared inertial: valid, and consistent with its geometry.
 
     Status per link: ok, mismatch (with diagnoses), invalid, missing,
-    no-geometry, massless, error.  Exit 1 only on invalid or error (with
+    no-geometry, massless, error.  --format junit prints JUnit XML, one test
+    case per link (failures: the statuses that make the exit status 1).  Exit 1 only on invalid or error (with
     --strict also on mismatch and missing); a mismatch explains, since declared
     inertials are rarely of uniform solids.
     """
@@ -167,8 +168,11 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
                          massless=tuple(massless), declared_only=declared_only, **kwargs)
     objects = _analyze_all(models, settings, jobs)
-    _emit(objects, output_format, check_text)
     failing = _STRICT if strict else _FAILING
+    if output_format == "junit":
+        click.echo(junit_xml(objects, failing), nl=False)
+    else:
+        _emit(objects, output_format, check_text)
     if junit:
         with open(junit, "w", encoding="utf-8") as handle:
             handle.write(junit_xml(objects, failing))
