@@ -146,6 +146,7 @@ def _analyzed(prepared, settings, start):
             placed.append((computed.props, poses[link.name]))
         if computed is not None and computed.assumed_density:
             assumed.append(link.name)
+    warnings += prepared.resolver.notices()
     density_warning = assumed_density_warning(assumed, settings.policy)
     if density_warning:
         warnings.append(density_warning)
