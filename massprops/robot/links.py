@@ -132,7 +132,8 @@ def _geometries(link, settings, resolver):
                                          repair=settings.repair, on_open=settings.on_open)
         except MassPropsError as exc:
             raise type(exc)(f"link {link.name!r}: {exc.problem}", path=exc.path, fix=exc.fix) from None
-        warnings += result.warnings
+        warnings += [w if w.startswith("link ") else f"link {link.name!r}, {geometry.where or geometry.name}: {w}"
+                     for w in result.warnings]
         info = {"kind": geometry.kind, "role": geometry.role, "name": geometry.name, "uri": geometry.uri,
                 "resolved_path": result.resolved_path, "resolved_by": result.resolved_by}
         if geometry.scale is not None:
@@ -194,7 +195,16 @@ def link_properties(model, link, settings, resolver):
     bounds = np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)]) \
         if boxes else None
     return LinkProps(total, tuple(infos), tuple(warnings), sum(r.triangles for _, _, r in results), bounds,
-                     mass_source or "density", tuple(results), solid.checks, density_mass, assumed)
+                     mass_source or "density", tuple(results), _with_own_overlaps(solid.checks, results),
+                     density_mass, assumed)
+
+
+def _with_own_overlaps(checks, results):
+    """The link's ``checks`` with each mesh's own overlap (its shells counted once; m³ after its scale) added."""
+    own = sum(float((r.checks or {}).get("overlap") or 0.0) for _, _, r in results)
+    if not own:
+        return checks
+    return {**checks, "overlap": float(checks.get("overlap") or 0.0) + own}
 
 
 def assumed_density_warning(links, policy):
