@@ -34,7 +34,7 @@ __all__ = [
 
 # Options that are both keyword arguments of the library and command-line options.
 # Flags: a bare placeholder means "turn it on" (repair=True / --repair).
-_FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env"})
+_FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env", "expand"})
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
                      "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
                      "omega", "about", "rotate", "translate", "on_open", "mass_policy", "massless", "joints",

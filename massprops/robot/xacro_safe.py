@@ -442,8 +442,10 @@ def _failed(exc, path):
     return RobotFormatError(f"xacro failed: {detail}", path=path, fix="run `xacro FILE` to see the full message")
 
 
-def expand_xacro(path, resolver, mappings=None, *, allow_env=False):
+def expand_xacro(path, resolver, mappings=None, *, allow_env=False, includes=None):
     """``(URDF bytes, warnings)``: the ``.xacro`` file expanded, its expressions evaluated as data only.
+
+    ``includes``, a list, receives the files the expansion included (for :mod:`massprops.robot.xacro_sources`).
 
     Raises
     ------
@@ -460,9 +462,12 @@ def expand_xacro(path, resolver, mappings=None, *, allow_env=False):
         raise OptionError("reading .xacro needs the xacro package, which is not installed", path=path,
                           fix='pip install "massprops[robot]" (or expand it first: xacro FILE > robot.urdf)') from None
     expansion = _Expansion(path, resolver, allow_env)
+    saved_includes, xacro.all_includes = xacro.all_includes, []
     with expansion.hooked(), contextlib.redirect_stderr(io.StringIO()):
         try:
             doc = xacro.process_file(os.fspath(path), mappings=dict(mappings or {}))
+            if includes is not None:
+                includes.extend(os.path.abspath(f) for f in xacro.all_includes)
         except Exception as exc:  # noqa: BLE001 - xacro raises many kinds; the edge wants one line
             if expansion.refusals:
                 raise expansion.refusals[0] from None
@@ -470,6 +475,8 @@ def expand_xacro(path, resolver, mappings=None, *, allow_env=False):
             if inner is not None:
                 raise inner from None
             raise _failed(exc, path) from None
+        finally:
+            xacro.all_includes = saved_includes
     if expansion.refusals:                  # swallowed by xacro (an optional include): refused all the same
         raise expansion.refusals[0]
     return doc.toxml(encoding="utf-8"), tuple(dict.fromkeys(expansion.warnings))
