@@ -313,7 +313,7 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
         moments = replace(moments, area2=stretched_area2(mesh, stretch, moments.scale_exp))
     props = MassProperties.from_moments(moments, density=float(density), pose=geometry.pose, path=path)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
-    warnings, checks = mesh_overlap_in_si(geometry.where, entry.warnings, entry.checks, np.linalg.det(stretch))
+    warnings, checks = mesh_overlap_in_si(entry.warnings, entry.checks, np.linalg.det(stretch))
     return props, bounds, int(mesh.faces.shape[0]), warnings, checks, _surface(entry, stretch, geometry)
 
 

@@ -36,13 +36,14 @@ def mass_text(kilograms, digits=3):
     return _text(float(kilograms), _MASSES, digits)
 
 
-def mesh_overlap_in_si(where, warnings, checks, volume_factor):
+def mesh_overlap_in_si(warnings, checks, volume_factor, where=""):
     """A mesh file's own overlap (shells counted once) in SI after its scale: ``(warnings, checks)``.
 
     The mesh reader states it in the file's units³ (``volume counted more than
     once: 658.522``); a robot geometry scales the file by a map of determinant
     ``volume_factor``, so the volume becomes ``overlap · |volume_factor|`` m³
-    and the warning says so in the link's words.
+    and the warning says so in the link's words (after ``where``, a prefix such as ``"collision[0]: "``;
+    the robot's link table adds the link and the geometry itself).
     """
     checks = dict(checks or {})
     overlap = float(checks.get("overlap") or 0.0)
@@ -53,9 +54,9 @@ def mesh_overlap_in_si(where, warnings, checks, volume_factor):
     out = []
     for warning in warnings:
         if "checks.overlap" in warning and "counted more than once" in warning:
-            out.append(f"{where}: the mesh's shells overlap by {volume_text(si)}; counted once (checks.overlap)")
+            out.append(f"{where}the mesh's shells overlap by {volume_text(si)}; counted once (checks.overlap)")
         elif "checks.overlap" in warning and "leaves out" in warning:
-            out.append(f"{where}: the mesh's faces wind around {volume_text(-si)} more than their signed volume "
+            out.append(f"{where}the mesh's faces wind around {volume_text(-si)} more than their signed volume "
                        "says; the region they wind around is counted (checks.overlap)")
         else:
             out.append(warning)
