@@ -229,13 +229,13 @@ def write(model, output, in_place, links_glob, all_links, frame, expand, **kwarg
             shutil.copy2(path, path + ".bak")
         with open(path, "wb") as handle:
             handle.write(data)
+    from ..errors import printable, render_options
     for record in result.written:
         note = f"; {record['nudge_note']}" if record.get("nudge_note") else ""
         where = f" in {record['file']}" if in_place and record.get("file") and record["file"] != main else ""
         click.echo(f"wrote {record['link']}{where} (was {record['before']}): mass {record['mass']:.9g} kg{note}")
         for warning in record["warnings"]:
-            click.echo(f"  warning: {warning}")
-    from ..errors import printable, render_options
+            click.echo(f"  warning: {printable(render_options(warning, 'cli'))}")
     for record in result.skipped:
         click.echo(f"left {record['link']}: {printable(render_options(record['reason'], 'cli'))}")
     if in_place:

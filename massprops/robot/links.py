@@ -132,8 +132,9 @@ def _geometries(link, settings, resolver):
                                          repair=settings.repair, on_open=settings.on_open)
         except MassPropsError as exc:
             raise type(exc)(f"link {link.name!r}: {exc.problem}", path=exc.path, fix=exc.fix) from None
-        warnings += [w if w.startswith("link ") else f"link {link.name!r}, {geometry.where or geometry.name}: {w}"
-                     for w in result.warnings]
+        where = geometry.where or geometry.name
+        warnings += [w if w.startswith("link ") else f"link {link.name!r}, {w}" if w.startswith(f"{where}: ")
+                     else f"link {link.name!r}, {where}: {w}" for w in result.warnings]
         info = {"kind": geometry.kind, "role": geometry.role, "name": geometry.name, "uri": geometry.uri,
                 "resolved_path": result.resolved_path, "resolved_by": result.resolved_by}
         if geometry.scale is not None:
