@@ -219,9 +219,10 @@ def write(model, output, in_place, links_glob, all_links, frame, expand, **kwarg
     main = os.path.abspath(model)
     others = [f for f in result.files if f != main]
     if others and not in_place:
-        options.echo_error(f"{model}: the inertials to write are in {len(result.files)} file(s) "
-                           f"({', '.join(sorted(result.files))}), not only in the model file — give --in-place "
-                           "(each file keeps a FILE.bak)")
+        also = " (and in MODEL itself)" if main in result.files else ""
+        options.echo_error(f"{model}: the inertials to write are in {', '.join(sorted(others))}{also}, which -o "
+                           "cannot write beside one output file — give --in-place (each file written keeps "
+                           "FILE.bak)")
         raise SystemExit(1)
     files = dict(result.files) if in_place else {os.path.abspath(output): result.data}
     for path, data in files.items():
