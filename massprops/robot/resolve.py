@@ -35,8 +35,9 @@ model's folder, so that ``../meshes/`` works), a ``--root DIR`` (``roots=``),
 or a package folder resolved so far by rules 1-4 (or ``model://``).
 
 A folder's name alone (rule 5) is weaker evidence, since ``package://etc/passwd``
-names a folder ``/etc`` above every model.  A folder found by its name becomes
-a root only when it belongs to the model's tree:
+names a folder ``/etc`` above every model.  A folder found by its name is used
+when it lies inside the roots above, and becomes a root of its own only when
+it belongs to the model's tree:
 
 - the model sits in an install prefix's ``share/`` folder (``PREFIX/share/PKG/...``,
   the layout of ament, colcon and cmeel installs) and the folder is
