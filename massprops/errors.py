@@ -34,7 +34,7 @@ __all__ = [
 
 # Options that are both keyword arguments of the library and command-line options.
 # Flags: a bare placeholder means "turn it on" (repair=True / --repair).
-_FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env"})
+_FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env", "expand"})
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
                      "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
                      "omega", "about", "rotate", "translate", "on_open", "mass_policy", "massless", "joints",
@@ -42,7 +42,8 @@ _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "densit
 # Options whose keyword argument has another name and form: placeholder → (keyword spelling, option spelling).
 _RENAMED = {"package": ("packages={'NAME': 'DIR'}", "--package NAME=DIR"),
             "config": ("config_path", "--config"),
-            "root": ("roots=['DIR']", "--root DIR")}
+            "root": ("roots=['DIR']", "--root DIR"),
+            "xacro_arg": ("xacro_args={'NAME': 'VALUE'}", "--xacro-arg NAME=VALUE")}
 # On/off switches with an option each way: {name=True} is --name, {name=False} is --no-name.
 _SWITCHES = frozenset({"self_intersection"})
 OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES | frozenset(_RENAMED)

@@ -150,7 +150,7 @@ def test_xacro_expands_with_find_through_our_resolver(tmp_path):
     links = {link["link"]: link for link in result["links"]}
     assert links["first"]["mass"] == 0.25
     assert links["mesh_link"]["mass"] == pytest.approx(0.006, rel=1e-15)
-    assert result["writable"] is False
+    assert result["writable"] is True           # written into its .xacro files (tests/test_robot_write_sources.py)
 
 
 def test_sdf_pose_forms_agree(tmp_path):

@@ -147,14 +147,15 @@ def props(models, output_format, jobs, **kwargs):
 @click.option("--diagnosis-rtol", type=float, default=0.02, show_default=True,
               help="How close a diagnosis's transformed tensor must come to the declared one.")
 @click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "csv", "junit")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
 def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
           jobs, **kwargs):
     """Check each link's declared inertial: valid, and consistent with its geometry.
 
     Status per link: ok, mismatch (with diagnoses), invalid, missing,
-    no-geometry, massless, error.  Exit 1 only on invalid or error (with
+    no-geometry, massless, error.  --format junit prints JUnit XML, one test
+    case per link (failures: the statuses that make the exit status 1).  Exit 1 only on invalid or error (with
     --strict also on mismatch and missing); a mismatch explains, since declared
     inertials are rarely of uniform solids.
     """
@@ -167,8 +168,11 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
                          massless=tuple(massless), declared_only=declared_only, **kwargs)
     objects = _analyze_all(models, settings, jobs)
-    _emit(objects, output_format, check_text)
     failing = _STRICT if strict else _FAILING
+    if output_format == "junit":
+        click.echo(junit_xml(objects, failing), nl=False)
+    else:
+        _emit(objects, output_format, check_text)
     if junit:
         with open(junit, "w", encoding="utf-8") as handle:
             handle.write(junit_xml(objects, failing))
@@ -185,9 +189,17 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
 @click.option("--frame", type=click.Choice(["link", "principal"]), default="link", show_default=True,
               help="link: origin at the COM, no rotation, full tensor in link axes; principal: diagonal tensor "
                    "with the principal axes' rotation.")
+@click.option("--expand", is_flag=True, help="For a .xacro file: write the expanded URDF (-o) instead of editing the "
+                                            ".xacro files where the inertials are written literally.")
 @model_options
-def write(model, output, in_place, links_glob, all_links, frame, **kwargs):
+def write(model, output, in_place, links_glob, all_links, frame, expand, **kwargs):
     """Write <inertial> elements computed from the geometry; every other byte stays as it was.
+
+    Each inertial goes into the file that holds it: an MJCF body in an
+    included file is written there, a .xacro link's literal <inertial> in its
+    .xacro file (--in-place when that is not MODEL itself; every file written
+    is listed).  An inertial made by a xacro macro is left, naming the macro
+    and the values; --expand writes the expanded URDF instead.
 
     Numbers are written in shortest round-trip form and read back through the
     strict checks (A + B >= C with no tolerance, positive definite); a thin
@@ -196,23 +208,40 @@ def write(model, output, in_place, links_glob, all_links, frame, **kwargs):
     from ..robot.write import write_inertials
     if bool(output) == bool(in_place):
         raise click.UsageError("give -o OUT or --in-place (one of them)")
+    if expand and in_place:
+        raise click.UsageError("--expand writes a new URDF: give -o OUT, not --in-place")
     settings = _settings("check", **kwargs)
     result = options.guarded(write_inertials, model, settings, links_glob=links_glob or None, all_links=all_links,
-                             frame=frame, path=model)
+                             frame=frame, expand=expand, path=model)
     if result is None:
         raise SystemExit(1)
-    target = model if in_place else output
-    if in_place:
-        shutil.copy2(model, model + ".bak")
-    with open(target, "wb") as handle:
-        handle.write(result.data)
+    import os
+    main = os.path.abspath(model)
+    others = [f for f in result.files if f != main]
+    if others and not in_place:
+        also = " (and in MODEL itself)" if main in result.files else ""
+        options.echo_error(f"{model}: the inertials to write are in {', '.join(sorted(others))}{also}, which -o "
+                           "cannot write beside one output file — give --in-place (each file written keeps "
+                           "FILE.bak)")
+        raise SystemExit(1)
+    files = dict(result.files) if in_place else {os.path.abspath(output): result.data}
+    for path, data in files.items():
+        if in_place:
+            shutil.copy2(path, path + ".bak")
+        with open(path, "wb") as handle:
+            handle.write(data)
+    from ..errors import printable, render_options
     for record in result.written:
         note = f"; {record['nudge_note']}" if record.get("nudge_note") else ""
-        click.echo(f"wrote {record['link']} (was {record['before']}): mass {record['mass']:.9g} kg{note}")
+        where = f" in {record['file']}" if in_place and record.get("file") and record["file"] != main else ""
+        click.echo(f"wrote {record['link']}{where} (was {record['before']}): mass {record['mass']:.9g} kg{note}")
         for warning in record["warnings"]:
-            click.echo(f"  warning: {warning}")
+            click.echo(f"  warning: {printable(render_options(warning, 'cli'))}")
     for record in result.skipped:
-        click.echo(f"left {record['link']}: {record['reason']}")
-    where = f"{target} (backup {model}.bak)" if in_place else target
-    click.echo(f"{len(result.written)} inertial(s) written to {where}")
+        click.echo(f"left {record['link']}: {printable(render_options(record['reason'], 'cli'))}")
+    if in_place:
+        listed = ", ".join(f"{p} (backup {p}.bak)" for p in files) or "no file"
+        click.echo(f"{len(result.written)} inertial(s) written to {listed}")
+    else:
+        click.echo(f"{len(result.written)} inertial(s) written to {output}")
     options.exit_with([r for r in result.skipped if r["failed"]])

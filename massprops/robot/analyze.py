@@ -18,7 +18,7 @@ from fnmatch import fnmatchcase
 from ..errors import MassPropsError, render_options
 from .check import Tolerances, compare, declared_validity, diagnose, MESH_SCALES
 from .geometry import parse_on_open
-from .links import MassSettings, link_properties, scaled_to_mass
+from .links import MassSettings, assumed_density_warning, link_properties, scaled_to_mass
 
 __all__ = ["RobotSettings", "analyze", "prepare", "STATUSES", "FAILING"]
 
@@ -126,7 +126,7 @@ def _spelled_text(value, style):
 
 def _analyzed(prepared, settings, start):
     model, poses = prepared.model, prepared.poses
-    links, placed, warnings = [], [], list(model.warnings)
+    links, placed, warnings, assumed = [], [], list(model.warnings), []
     for link in model.links:
         began = time.perf_counter()
         computed, error = None, link.error
@@ -144,6 +144,12 @@ def _analyzed(prepared, settings, start):
         links.append(entry)
         if computed is not None and computed.props is not None:
             placed.append((computed.props, poses[link.name]))
+        if computed is not None and computed.assumed_density:
+            assumed.append(link.name)
+    warnings += prepared.resolver.notices()
+    density_warning = assumed_density_warning(assumed, settings.policy)
+    if density_warning:
+        warnings.append(density_warning)
     broken = model.extra.get("broken_joints")
     if broken:
         warnings.append(f"no total: joint(s) {', '.join(map(repr, broken))} could not be read, so links are not "
@@ -190,6 +196,22 @@ def _declared_dict(inertial):
     return out
 
 
+def _computed_dict(link, computed):
+    """What the geometry gives: the mass from the densities, and the inertia about its own center of mass at
+    the declared mass (at the computed mass when none is declared), link axes; None without geometry."""
+    if computed is None or computed.props is None:
+        return None
+    props = computed.props
+    declared = link.declared
+    at_declared = declared is not None and not declared.auto and declared.mass is not None and \
+        math.isfinite(declared.mass.value) and declared.mass.value > 0
+    if at_declared and not math.isclose(props.mass, declared.mass.value, rel_tol=1e-15):
+        props = scaled_to_mass(props, declared.mass.value)
+    return {"mass": computed.density_mass, "center_of_mass": props.center_of_mass.tolist(),
+            "inertia_com": props.inertia_com.tolist(),
+            "inertia_at": "declared mass" if at_declared else "computed mass"}
+
+
 _NULL_PROPS = ("triangles", "volume", "mass", "density", "surface_area", "center_of_mass", "inertia_com",
                "principal_moments", "principal_axes", "degenerate", "center_of_mass_global", "inertia_com_global",
                "inertia_origin", "error")
@@ -219,6 +241,7 @@ def _link_entry(model, link, computed, error, prepared, settings, pose):
         entry.update(dict.fromkeys(_NULL_PROPS))
         entry["warnings"] = list(computed.warnings) if computed is not None else []
     entry["declared"] = _declared_dict(link.declared)
+    entry["computed"] = _computed_dict(link, computed)
     entry["geometries"] = list(computed.geometries) if computed is not None else [
         {"kind": g.kind, "role": g.role, "name": g.name, "uri": g.uri, "resolved_path": None, "resolved_by": None}
         for g in link.chosen(settings.geometry)]

@@ -41,6 +41,7 @@ from ..core.rounding import U as _U
 from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError, option
 from ..properties import ErrorBounds, MassProperties, unit_factor
 from .model import PRIMITIVES
+from .units import mesh_overlap_in_si
 
 __all__ = ["NO_VOLUME", "GeometryResult", "geometry_properties", "primitive_properties", "primitive_bounds", "OnOpen",
            "parse_on_open", "clear_cache"]
@@ -312,7 +313,8 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
         moments = replace(moments, area2=stretched_area2(mesh, stretch, moments.scale_exp))
     props = MassProperties.from_moments(moments, density=float(density), pose=geometry.pose, path=path)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
-    return props, bounds, int(mesh.faces.shape[0]), entry.warnings, entry.checks, _surface(entry, stretch, geometry)
+    warnings, checks = mesh_overlap_in_si(entry.warnings, entry.checks, np.linalg.det(stretch))
+    return props, bounds, int(mesh.faces.shape[0]), warnings, checks, _surface(entry, stretch, geometry)
 
 
 def _surface(entry, linear, geometry):

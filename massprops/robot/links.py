@@ -31,7 +31,8 @@ from ..errors import MassPropsError
 from .geometry import OnOpen, geometry_properties
 from .overlap import link_solid
 
-__all__ = ["MassSettings", "LinkProps", "link_properties", "scaled_to_mass", "DEFAULT_DENSITY"]
+__all__ = ["MassSettings", "LinkProps", "link_properties", "scaled_to_mass", "DEFAULT_DENSITY",
+           "assumed_density_warning"]
 
 DEFAULT_DENSITY = 1000.0
 
@@ -56,6 +57,8 @@ class LinkProps:
     ``geometries`` holds one JSON-able dict per geometry; ``bounds`` (2, 3)
     is the box of the link's geometry in the link frame, or None;
     ``checks`` what combining them found (:class:`massprops.robot.overlap.LinkSolid`).
+    ``density_mass`` is the mass the densities give (before a declared or config mass replaces it);
+    ``assumed_density`` says a geometry's density fell back to the default (the caller warns once per model).
     """
 
     props: object
@@ -66,6 +69,8 @@ class LinkProps:
     mass_source: str = ""
     results: tuple = field(default=(), repr=False)
     checks: dict = field(default_factory=dict)
+    density_mass: float | None = None
+    assumed_density: bool = False
 
     @property
     def size(self):
@@ -127,7 +132,9 @@ def _geometries(link, settings, resolver):
                                          repair=settings.repair, on_open=settings.on_open)
         except MassPropsError as exc:
             raise type(exc)(f"link {link.name!r}: {exc.problem}", path=exc.path, fix=exc.fix) from None
-        warnings += result.warnings
+        where = geometry.where or geometry.name
+        warnings += [w if w.startswith("link ") else f"link {link.name!r}, {w}" if w.startswith(f"{where}: ")
+                     else f"link {link.name!r}, {where}: {w}" for w in result.warnings]
         info = {"kind": geometry.kind, "role": geometry.role, "name": geometry.name, "uri": geometry.uri,
                 "resolved_path": result.resolved_path, "resolved_by": result.resolved_by}
         if geometry.scale is not None:
@@ -175,6 +182,7 @@ def link_properties(model, link, settings, resolver):
     densities = {props.density for _, props, _ in results}
     if len(densities) == 1:
         total = replace(total, density=densities.pop())      # one material: its density, not mass / volume
+    density_mass = total.mass
     mass, mass_source = _link_mass(link, settings)
     if mass is not None:
         ratio = mass / total.mass
@@ -182,12 +190,29 @@ def link_properties(model, link, settings, resolver):
         for info in infos:
             if info.get("included"):
                 info.update(mass=info["mass"] * ratio, density=info["density"] * ratio, density_source=mass_source)
-    elif defaulted and not (link.declared is not None and link.declared.mass is not None
-                            and link.declared.mass.value == 0):
-        warnings.append(f"link {link.name!r}: no density given: {DEFAULT_DENSITY:g} kg/m³ (water) assumed — give "
-                        "{density}, a [links] density in {config}, or keep the declared mass ({mass_policy=keep})")
+    assumed = mass is None and defaulted and not (link.declared is not None and link.declared.mass is not None
+                                                  and link.declared.mass.value == 0)
     boxes = [r.bounds for _, _, r in results if r.bounds is not None]
     bounds = np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)]) \
         if boxes else None
     return LinkProps(total, tuple(infos), tuple(warnings), sum(r.triangles for _, _, r in results), bounds,
-                     mass_source or "density", tuple(results), solid.checks)
+                     mass_source or "density", tuple(results), _with_own_overlaps(solid.checks, results),
+                     density_mass, assumed)
+
+
+def _with_own_overlaps(checks, results):
+    """The link's ``checks`` with each mesh's own overlap (its shells counted once; m³ after its scale) added."""
+    own = sum(float((r.checks or {}).get("overlap") or 0.0) for _, _, r in results)
+    if not own:
+        return checks
+    return {**checks, "overlap": float(checks.get("overlap") or 0.0) + own}
+
+
+def assumed_density_warning(links, policy):
+    """The one model-level warning for the links whose density fell back to the default, or None."""
+    if not links:
+        return None
+    named = ", ".join(repr(name) for name in links[:5]) + (f" and {len(links) - 5} more" if len(links) > 5 else "")
+    keep = "" if policy == "keep" else ", or keep the declared masses ({mass_policy=keep})"
+    return (f"no density given for {len(links)} link(s) ({named}): {DEFAULT_DENSITY:g} kg/m³ (water) assumed — "
+            f"give {{density}} or a [links] density in {{config}}{keep}")

@@ -64,9 +64,11 @@ def load_model(path, resolver, *, xacro_args=None, allow_env=False):
         if xacro:
             from dataclasses import replace
             from .xacro_safe import expand_xacro
-            data, warnings = expand_xacro(path, resolver, xacro_args, allow_env=allow_env)
-            model = read_urdf(path, data=data, writable="a xacro file is generated: write the expanded URDF "
-                                                         "(xacro FILE > robot.urdf) and write that")
+            from .xacro_sources import locate, with_sources
+            includes = []
+            data, warnings = expand_xacro(path, resolver, xacro_args, allow_env=allow_env, includes=includes)
+            model = read_urdf(path, data=data)
+            model = with_sources(model, locate(model, path, includes))
             return replace(model, warnings=warnings + model.warnings) if warnings else model
         return read_urdf(path)
     if kind == "sdf":

@@ -181,21 +181,57 @@ def _declared(body, compiled_rotation, element, path):
     return Inertial(mass, center, rotation @ tensor @ rotation.T, rotation, written, line=None)
 
 
+def included_files(path):
+    """The files ``path`` includes, nested ones too, in document order (MuJoCo's rule: relative to the main
+    file's folder); those that are missing or do not parse are left out (MuJoCo names them)."""
+    from lxml import etree
+    folder = os.path.dirname(os.path.abspath(path))
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True, recover=True)
+    out, pending = [], [os.path.abspath(path)]
+    while pending and len(out) <= MAX_INCLUDES:
+        current = pending.pop(0)
+        if current in out:
+            continue
+        out.append(current)
+        try:
+            root = etree.parse(current, parser).getroot()
+        except (OSError, etree.XMLSyntaxError):
+            continue
+        if root is None:
+            continue
+        pending += [os.path.abspath(os.path.join(folder, i.get("file"))) for i in root.iter("include") if i.get("file")]
+    return out[1:]
+
+
 def _body_elements(path, spec):
-    """``{body name: (body element, inertial element or None, spans)}`` from the main file; None if unmatched."""
+    """``({body name: (body element, inertial element or None, file)}, {file: spans}, {file: bytes})``.
+
+    Without includes the bodies are paired with the spec's in order (unnamed ones too); with includes, by
+    name across the main file and every included file (an unnamed body there is not located).
+    """
     root, spans, data = parse_with_spans(path)
-    elements = [e for e in root.iter("body")]
+    path = os.path.abspath(path)
     names = [b.name for b in spec.bodies[1:]]
+    files_spans, files_data = {path: spans}, {path: data}
     if root.find(".//include") is not None or root.find(".//replicate") is not None \
             or root.find(".//attach") is not None:
-        by_name = {e.get("name"): e for e in elements if e.get("name")}
-        matched = {n: by_name.get(n) for n in names if n}
-    elif len(elements) == len(names):
-        matched = {(n or f"body{k + 1}"): e for k, (n, e) in enumerate(zip(names, elements))}
+        by_name = {e.get("name"): (e, path) for e in root.iter("body") if e.get("name")}
+        for included in included_files(path):
+            try:
+                other, other_spans, other_data = parse_with_spans(included)
+            except (MassPropsError, OSError):
+                continue
+            files_spans[included], files_data[included] = other_spans, other_data
+            for e in other.iter("body"):
+                if e.get("name") and e.get("name") not in by_name:
+                    by_name[e.get("name")] = (e, included)
+        matched = {n: by_name.get(n, (None, None)) for n in names if n}
     else:
-        matched = {}
-    return {name: (element, element.find("inertial") if element is not None else None) for name, element
-            in matched.items()}, spans, data
+        elements = list(root.iter("body"))
+        matched = {(n or f"body{k + 1}"): (e, path) for k, (n, e) in enumerate(zip(names, elements))} \
+            if len(elements) == len(names) else {}
+    return {name: (element, element.find("inertial") if element is not None else None, file)
+            for name, (element, file) in matched.items()}, files_spans, files_data
 
 
 def _compiled(spec, path, resolver, mujoco):
@@ -228,13 +264,14 @@ def _body_geometries(model, spec, files, problems, path, mujoco):
     return geometries, errors, world_geoms
 
 
-def _link(k, body, names, model, geometries, errors, elements, spans, path):
-    element, inertial_element = elements.get(names[k], (None, None))
+def _link(k, body, names, model, geometries, errors, elements, files_spans, path):
+    element, inertial_element, file = elements.get(names[k], (None, None, None))
+    spans = files_spans.get(file) if file else None
     span = spans.get(element) if spans and element is not None else None
     inertial_span = spans.get(inertial_element) if spans and inertial_element is not None else None
     declared = None
     if body.explicitinertial:
-        declared = _declared(body, _quat(model.body_iquat[k]), inertial_element, path)
+        declared = _declared(body, _quat(model.body_iquat[k]), inertial_element, file or path)
         if inertial_span is not None:
             declared = replace(declared, span=(inertial_span.start, inertial_span.end),
                                line=inertial_element.sourceline)
@@ -299,11 +336,13 @@ def read_mjcf(path, resolver):
     except Exception as exc:  # noqa: BLE001 - MuJoCo raises ValueError with its own message
         raise RobotFormatError(f"MuJoCo cannot read it: {' '.join(str(exc).split())}", path=path) from None
     model, files, problems = _compiled(spec, path, resolver, mujoco)
-    elements, spans, data = _body_elements(path, spec)
+    elements, files_spans, files_data = _body_elements(path, spec)
+    main = os.path.abspath(path)
+    spans, data = files_spans[main], files_data[main]
     geometries, errors, world_geoms = _body_geometries(model, spec, files, problems, path, mujoco)
     bodies = list(spec.bodies)
     names = [_name(b, "body", k) for k, b in enumerate(bodies)]
-    links = [_link(k, bodies[k], names, model, geometries, errors, elements, spans, path)
+    links = [_link(k, bodies[k], names, model, geometries, errors, elements, files_spans, path)
              for k in range(1, len(bodies))]
     warnings = []
     if world_geoms:
@@ -312,8 +351,12 @@ def read_mjcf(path, resolver):
         warnings.append("<compiler inertiafromgeom=\"true\">: MuJoCo ignores the declared inertials and computes "
                         "them from the geoms")
     writable = None if spans is not None else "the file's elements could not be located byte by byte"
+    # Each link's bytes are in the file that holds its body (an included file for a scene's robot).
+    link_files = {name: file for name, (_, _, file) in elements.items() if file and file != main}
+    extra = {"sources": {f: d for f, d in files_data.items() if files_spans.get(f) is not None},
+             "link_files": link_files}
     return RobotModel(path, "mjcf", spec.modelname or "", tuple(links), tuple(_joints(model, names, mujoco)), data,
-                      tuple(warnings), frame="world", writable=writable)
+                      tuple(warnings), frame="world", writable=writable, extra=extra)
 
 
 def _geometry(model, g, geom, spec, files, path, counters, body, mujoco):

@@ -46,6 +46,7 @@ from ..core.rounding import U as _U
 from ..errors import MassPropsError
 from ..mesh.shells import joined_groups
 from ..scene import combine_parts
+from .units import volume_text
 
 __all__ = ["LinkSolid", "link_solid"]
 
@@ -288,9 +289,8 @@ def _united(link_name, members, repair):
     if twice <= unsure:
         return [_within(summed, union)], facts, said            # they touch: the sum, bounded by the union
     nested = [r for r in checked.resolved if "meet" not in r]
-    said.append(f"link {link_name!r}: geometries {_names([m for m, _ in distinct])} overlap"
-                f"{' (' + '; '.join(nested) + ')' if nested else ''}: the link is their union, each point counted "
-                f"once (volume counted twice: {twice:.6g} m³, checks.overlap)")
+    said.append(f"link {link_name!r}: geometries {_names([m for m, _ in distinct])} overlap by {volume_text(twice)}"
+                f"{' (' + '; '.join(nested) + ')' if nested else ''}; counted once (checks.overlap)")
     facts = {"overlap": facts.get("overlap", 0.0) + twice, "united": True,
              "duplicate_shells": facts.get("duplicate_shells", 0)}
     return [union], facts, said

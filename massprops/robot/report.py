@@ -13,7 +13,8 @@ __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
 CSV_COLUMNS = ("model,link,status,message,mass,volume,density,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "err_mass,err_inertia,declared_mass,declared_cx,declared_cy,declared_cz,declared_Ixx,declared_Iyy,"
                "declared_Izz,declared_Ixy,declared_Ixz,declared_Iyz,implied_density,com_distance,"
-               "inertia_difference,diagnoses,geometries,elapsed_s").split(",")
+               "inertia_difference,computed_mass,computed_Ixx,computed_Iyy,computed_Izz,computed_Ixy,computed_Ixz,"
+               "computed_Iyz,diagnoses,geometries,elapsed_s").split(",")
 _TENSOR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
@@ -97,6 +98,13 @@ def _messages(obj):
     return lines
 
 
+def _moments(tensor):
+    if tensor is None:
+        return None
+    import numpy as np
+    return list(np.linalg.eigvalsh(np.asarray(tensor, dtype=float)))
+
+
 def _percent(value):
     if value is None:
         return "-"
@@ -107,18 +115,23 @@ def check_text(obj):
     """A readable block for one ``robot check`` object: a row per link, then what is wrong and why."""
     if obj.get("status") == "error":
         return "\n".join(_failed(obj))
-    rows = [("link", "status", "mass [kg]", "density*", "COM off [m]", "(of size)", "inertia off", "diagnoses")]
+    rows = [("link", "status", "declared [kg]", "computed [kg]", "density*", "COM off [m]", "(of size)",
+             "inertia off", "computed moments [kg·m²]†", "diagnoses")]
     for link in obj["links"]:
         comparison = link.get("comparison") or {}
         declared = link.get("declared") or {}
-        rows.append((link["link"], link["status"], _g(declared.get("mass")),
+        computed = link.get("computed") or {}
+        rows.append((link["link"], link["status"], _g(declared.get("mass")), _g(computed.get("mass")),
                      _g(comparison.get("implied_density"), 4),
                      _g(comparison.get("com_distance"), 3),
                      f"{comparison['com_distance_relative']:.1%}" if "com_distance_relative" in comparison else "-",
                      _percent(comparison.get("inertia_difference")),
+                     _vector(_moments(computed.get("inertia_com")), 4),
                      ", ".join(link["diagnoses"]) or "-"))
     lines = [_header(obj), *_table(rows),
-             "  * implied density: declared mass / geometry volume [kg/m³]"]
+             "  * implied density: declared mass / geometry volume [kg/m³]; computed: mass from the densities",
+             "  † principal moments of the geometry's inertia at the declared mass (at the computed mass where "
+             "none is declared)"]
     lines += _messages(obj)
     lines.append(f"  summary: {', '.join(f'{n} {s}' for s, n in obj['summary'].items())}")
     return "\n".join(lines)
@@ -147,6 +160,12 @@ def _csv_row(obj, link):
         d = declared["inertia_com"]
         row.update(zip(("declared_Ixx", "declared_Iyy", "declared_Izz", "declared_Ixy", "declared_Ixz",
                         "declared_Iyz"), (repr(d[a][b]) for a, b in _TENSOR)))
+    computed = link.get("computed")
+    if computed:
+        row["computed_mass"] = repr(computed["mass"])
+        c = computed["inertia_com"]
+        row.update(zip(("computed_Ixx", "computed_Iyy", "computed_Izz", "computed_Ixy", "computed_Ixz",
+                        "computed_Iyz"), (repr(c[a][b]) for a, b in _TENSOR)))
     comparison = link.get("comparison") or {}
     for key in ("implied_density", "com_distance", "inertia_difference"):
         if key in comparison:
@@ -170,25 +189,23 @@ def csv_text(objects):
 
 
 def junit_xml(objects, failing):
-    """JUnit XML: a test suite per model, a test case per link; ``failing`` statuses are failures."""
-    from xml.etree import ElementTree as ET
-    root = ET.Element("testsuites", name="massprops robot")
+    """JUnit XML (:func:`massprops.report.junit`): a test suite per model, a test case per link; ``failing``
+    statuses are failures, a model that could not be read one error."""
+    from ..report import junit
+    suites = []
     for obj in objects:
-        links = obj.get("links") or []
-        suite = ET.SubElement(root, "testsuite", name=obj["model"], tests=str(max(1, len(links))),
-                              failures=str(sum(1 for link in links if link["status"] in failing)),
-                              errors=str(1 if obj.get("status") == "error" else 0),
-                              time=f"{obj.get('elapsed_s', 0.0):.3f}")
         if obj.get("status") == "error":
-            case = ET.SubElement(suite, "testcase", classname="massprops.robot", name=obj["model"])
-            ET.SubElement(case, "error", message=obj["message"]).text = obj["message"]
+            suites.append({"name": obj["model"], "cases": [{
+                "name": obj["model"], "classname": "massprops.robot", "time": obj.get("elapsed_s", 0.0),
+                "error": {"message": obj["message"], "text": obj["message"]}}]})
             continue
-        for link in links:
-            case = ET.SubElement(suite, "testcase", classname=f"massprops.robot.{obj.get('name') or 'model'}",
-                                 name=link["link"], time=f"{link.get('elapsed_s', 0.0):.3f}")
+        cases = []
+        for link in obj.get("links") or []:
+            case = {"name": link["link"], "classname": f"massprops.robot.{obj.get('name') or 'model'}",
+                    "time": link.get("elapsed_s", 0.0)}
             if link["status"] in failing:
                 text = link["message"] or link["status"]
-                ET.SubElement(case, "failure", message=f"{link['status']}: {text}"[:500],
-                              type=link["status"]).text = text
-    ET.indent(root)
-    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+                case["failure"] = {"message": f"{link['status']}: {text}", "type": link["status"], "text": text}
+            cases.append(case)
+        suites.append({"name": obj["model"], "cases": cases})
+    return junit(suites, name="massprops robot")

@@ -19,13 +19,14 @@ smallest such, and the nudge is reported with the tensor's error bound.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 
 import numpy as np
 
-from ..errors import MassPropsError, OptionError
+from ..errors import MassPropsError, OptionError, option
 from .check import declared_validity
 from .model import Decimal, Inertial, rotation_rpy
 
@@ -37,14 +38,19 @@ _MARGIN_ULPS = 8
 
 @dataclass
 class WriteResult:
-    """The new file's bytes and what was written (one dict per link) or left alone (with the reason, and
-    ``failed`` when the link was asked for but could not be written)."""
+    """The new bytes and what was written (one dict per link, with its ``file``) or left alone (with the
+    reason, and ``failed`` when the link was asked for but could not be written).
+
+    ``data`` is the model file's new bytes; ``files`` maps every file that changed (the model file, or
+    the included MJCF or xacro files that hold the inertials) to its new bytes.
+    """
 
     data: bytes
     written: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
     spans: list = field(default_factory=list)
     analysis: dict | None = None
+    files: dict = field(default_factory=dict)
 
 
 def _text(value):
@@ -152,8 +158,9 @@ def _edit(model, link, text_for, data, newline):
         indent = _indentation(data, start)
         return start, end, text_for(indent, unit).encode("utf-8")
     if link.span is None:
-        raise MassPropsError(f"link {link.name!r} is not in this file's bytes (an included file?)",
-                             fix="write the file that defines it")
+        raise MassPropsError(f"link {link.name!r}: its element could not be located in the model's files "
+                             "(an unnamed body in an included file, or an element made by an entity)",
+                             fix="give the element a name, or write the file that defines it")
     # A link with geometry has children, so its start tag is never self-closing: insert after it.
     indent = _indentation(data, link.span[0]) + unit
     content = link.insert_at
@@ -201,7 +208,7 @@ def _planned(model, link, entry, frame, data, newline, path):
     return edit, record
 
 
-def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="link"):
+def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="link", expand=False):
     """Compute and write the selected links' inertials; returns a :class:`WriteResult` (nothing is saved here).
 
     Parameters
@@ -213,6 +220,8 @@ def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="
     all_links : bool
         Write every link with geometry.
     frame : {"link", "principal"}
+    expand : bool
+        For a ``.xacro`` file: write into the expanded URDF (``data``) instead of the ``.xacro`` files.
     """
     from .analyze import _analyzed, prepare
     if frame not in FRAMES:
@@ -224,31 +233,62 @@ def write_inertials(path, settings, *, links_glob=None, all_links=False, frame="
     if model.writable is not None:
         raise MassPropsError(f"cannot write this file: {model.writable}", path=path)
     analysis = _analyzed(prepared, settings, start)
-    data = model.source
-    newline = "\r\n" if b"\r\n" in data else "\n"
-    result = WriteResult(data, analysis=analysis)
-    edits = []
+    if expand:
+        from .xacro_sources import expanded
+        if "expanded" not in model.extra:
+            raise OptionError(f"{option('expand')} writes the expanded URDF of a .xacro file; this is a "
+                              f"{model.format.upper()} file", path=path, fix=f"leave out {option('expand')}")
+        model = expanded(model)
+        if model.writable is not None:
+            raise MassPropsError(f"cannot write the expanded URDF: {model.writable}", path=path)
+    main = os.path.abspath(model.path)
+    sources = dict(model.extra.get("sources") or {})
+    sources.setdefault(main, model.source)
+    link_files = model.extra.get("link_files") or {}
+    unwritable = model.extra.get("unwritable") or {}
+    result = WriteResult(model.source, analysis=analysis)
+    edits = {}
     for link in model.links:
         entry, reason = _selected(analysis, link, links_glob, all_links)
         if entry is None:
             if reason:
                 result.skipped.append({"link": link.name, "reason": reason, "failed": reason.startswith("not ")})
             continue
+        if link.name in unwritable:
+            result.skipped.append({"link": link.name, "reason": f"{unwritable[link.name]}; the values: "
+                                   f"{_inline(entry, frame)}", "failed": True})
+            continue
+        file = link_files.get(link.name, main)
+        data = sources[file]
+        newline = "\r\n" if b"\r\n" in data else "\n"
         try:
             edit, record = _planned(model, link, entry, frame, data, newline, path)
         except MassPropsError as exc:
             result.skipped.append({"link": link.name, "reason": exc.problem, "failed": True})
             continue
-        edits.append(edit)
+        edits.setdefault(file, []).append(edit)
+        record["file"] = file
         result.written.append(record)
-    pieces, cursor = [], 0
-    for begin, end, new, name in sorted(edits):
-        pieces += [data[cursor:begin], new]
-        result.spans.append((begin, end, len(new), name))
-        cursor = end
-    pieces.append(data[cursor:])
-    result.data = b"".join(pieces)
+    for file, changes in edits.items():
+        data, pieces, cursor = sources[file], [], 0
+        for begin, end, new, name in sorted(changes):
+            pieces += [data[cursor:begin], new]
+            if file == main:
+                result.spans.append((begin, end, len(new), name))
+            cursor = end
+        pieces.append(data[cursor:])
+        result.files[file] = b"".join(pieces)
+    result.data = result.files.get(main, model.source)
     return result
+
+
+def _inline(entry, frame):
+    """The URDF ``<inertial>`` to write, on one line (what a macro's arguments must produce)."""
+    center, rotation, tensor, rpy = _values(entry, frame)
+    e = {name: _text(tensor[i, j]) for name, (i, j) in _ORDER.items()}
+    return (f'<inertial><origin xyz="{" ".join(_text(v) for v in center)}" rpy="{" ".join(_text(v) for v in rpy)}"/>'
+            f'<mass value="{_text(entry["mass"])}"/><inertia '
+            + " ".join(f'{name}="{e[name]}"' for name in _ORDER) + "/></inertial>")
 
 
 def _read_back(mass, center, tensor, rotation, rpy):

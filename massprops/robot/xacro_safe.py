@@ -32,6 +32,7 @@ import io
 import math
 import operator
 import os
+import re
 from contextlib import contextmanager
 
 from ..errors import MassPropsError, OptionError, option
@@ -343,7 +344,9 @@ class _Expansion:
         folder = self.resolver.find_package(package)
         if folder is None:
             tried = self.resolver.log[(f"$(find {package})", None)].tried
-            raise MassPropsError(f"$(find {package}): package not found (tried: {'; '.join(tried) or 'nowhere'})",
+            looked = f" (tried: {'; '.join(tried)})" if tried else \
+                f" (no {option('package')} for it, no folder of that name or package.xml naming it above the model)"
+            raise MassPropsError(f"$(find {package}): package {package!r} not found{looked}",
                                  path=self.path, fix=f"give {option('package')} for {package!r}")
         return folder
 
@@ -420,8 +423,29 @@ def _inner(exc):
     return None
 
 
-def expand_xacro(path, resolver, mappings=None, *, allow_env=False):
+_CLASS = re.compile(r"<class '[\w.]+'>:?\s*")
+_UNDEFINED_ARG = re.compile(r"Undefined substitution argument\s*(\S*)")
+
+
+def _failed(exc, path):
+    """xacro's failure as one line for the shell: no Python class names, the option that fixes it where known."""
+    detail = _CLASS.sub("", " ".join(str(exc).split())).strip()
+    inner = getattr(exc, "exc", None)
+    argument = _UNDEFINED_ARG.match(detail)
+    if argument:
+        name = argument.group(1) or " ".join(str(inner or "").split()) or "NAME"
+        name = name.strip("'\" ")
+        return RobotFormatError(f"xacro: the argument {name!r} has no value (no default in the file)", path=path,
+                                fix=f"give {option('xacro_arg')} with NAME {name}")
+    if not detail:
+        detail = _CLASS.sub("", " ".join(str(inner or "").split())).strip() or "it stopped with no message"
+    return RobotFormatError(f"xacro failed: {detail}", path=path, fix="run `xacro FILE` to see the full message")
+
+
+def expand_xacro(path, resolver, mappings=None, *, allow_env=False, includes=None):
     """``(URDF bytes, warnings)``: the ``.xacro`` file expanded, its expressions evaluated as data only.
+
+    ``includes``, a list, receives the files the expansion included (for :mod:`massprops.robot.xacro_sources`).
 
     Raises
     ------
@@ -438,18 +462,21 @@ def expand_xacro(path, resolver, mappings=None, *, allow_env=False):
         raise OptionError("reading .xacro needs the xacro package, which is not installed", path=path,
                           fix='pip install "massprops[robot]" (or expand it first: xacro FILE > robot.urdf)') from None
     expansion = _Expansion(path, resolver, allow_env)
+    saved_includes, xacro.all_includes = xacro.all_includes, []
     with expansion.hooked(), contextlib.redirect_stderr(io.StringIO()):
         try:
             doc = xacro.process_file(os.fspath(path), mappings=dict(mappings or {}))
+            if includes is not None:
+                includes.extend(os.path.abspath(f) for f in xacro.all_includes)
         except Exception as exc:  # noqa: BLE001 - xacro raises many kinds; the edge wants one line
             if expansion.refusals:
                 raise expansion.refusals[0] from None
             inner = _inner(exc)
             if inner is not None:
                 raise inner from None
-            detail = " ".join(str(exc).split()) or type(exc).__name__
-            raise RobotFormatError(f"xacro failed: {detail}", path=path,
-                                   fix="run `xacro FILE` to see the full message") from None
+            raise _failed(exc, path) from None
+        finally:
+            xacro.all_includes = saved_includes
     if expansion.refusals:                  # swallowed by xacro (an optional include): refused all the same
         raise expansion.refusals[0]
     return doc.toxml(encoding="utf-8"), tuple(dict.fromkeys(expansion.warnings))

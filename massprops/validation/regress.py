@@ -285,23 +285,17 @@ def junit_xml(cases, *, rtol, atol):
     ----------
     cases : sequence of (label, Comparison or None, error message or None, seconds)
     """
-    from xml.etree import ElementTree as ET
+    from ..report import junit
 
-    failures = sum(1 for _, c, _, _ in cases if c is not None and c.failed)
-    errors = sum(1 for _, c, _, _ in cases if c is None)
-    suite = ET.Element("testsuite", name="massprops regress", tests=str(len(cases)), failures=str(failures),
-                       errors=str(errors), time=f"{sum(t for *_, t in cases):.3f}")
-    ET.SubElement(ET.SubElement(suite, "properties"), "property", name="tolerance",
-                  value=f"rtol={rtol:g} atol={atol:g}")
+    suite = []
     for label, comparison, error, seconds in cases:
-        case = ET.SubElement(suite, "testcase", classname="massprops.validation.regress", name=label, time=f"{seconds:.3f}")
+        case = {"name": label, "classname": "massprops.validation.regress", "time": seconds}
         if comparison is None:
-            ET.SubElement(case, "error", message=error or "could not be computed").text = error
+            case["error"] = {"message": error or "could not be computed", "text": error}
         elif comparison.failed:
-            text = "\n".join(describe(d) for d in comparison.failures)
-            ET.SubElement(case, "failure", message=f"{len(comparison.failures)} deviation(s) beyond tolerance: "
-                          + ", ".join(d.column for d in comparison.failures)).text = text
-    root = ET.Element("testsuites")
-    root.append(suite)
-    ET.indent(root)
-    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+            case["failure"] = {"message": f"{len(comparison.failures)} deviation(s) beyond tolerance: "
+                                          + ", ".join(d.column for d in comparison.failures),
+                               "text": "\n".join(describe(d) for d in comparison.failures)}
+        suite.append(case)
+    return junit([{"name": "massprops regress", "cases": suite,
+                   "properties": {"tolerance": f"rtol={rtol:g} atol={atol:g}"}}])
