@@ -52,20 +52,42 @@ class ErrorBounds:
 
     volume: float
     mass: float
-    center_of_mass: float = 0.0
-    inertia_com: float = 0.0
-    principal_moments: float = 0.0
-    principal_axes_rad: tuple = ()
+    center_of_mass: float | None = None
+    inertia_com: float | None = None
     input_resolution: dict = field(default_factory=dict)
+    principal_source: object = field(default=None, repr=False, compare=False)
 
-    def as_dict(self, principal=None):
-        """The bounds by name; with a :class:`massprops.principal.Principal`, its moment and axis bounds."""
-        moments, axes = (self.principal_moments, self.principal_axes_rad) if principal is None else (
-            principal.moments_error, principal.axes_error)
-        out = {"volume": self.volume, "mass": self.mass, "center_of_mass": self.center_of_mass,
-               "inertia_com": self.inertia_com, "principal_moments": moments}
-        if axes:
-            out["principal_axes_rad"] = list(axes)
+    # A quantity that was not computed has no bound (None), never a bound of zero.  The principal
+    # bounds belong to the eigen-decomposition, found on demand: ``principal_source`` is a callable
+    # returning the :class:`massprops.principal.Principal` (set by MassProperties) or None.
+
+    def _principal(self):
+        return None if self.principal_source is None else self.principal_source()
+
+    @property
+    def principal_moments(self) -> float | None:
+        """Bound on each principal moment's error (None when the inertia was not computed)."""
+        found = self._principal()
+        return None if found is None else found.moments_error
+
+    @property
+    def principal_axes_rad(self) -> tuple | None:
+        """Bound on each principal axis's angle error, radians (None when the inertia was not computed)."""
+        found = self._principal()
+        return None if found is None else tuple(found.axes_error)
+
+    def as_dict(self, *, principal=True):
+        """The bounds by name; the principal ones too when ``principal`` (found on demand when first asked)."""
+        found = self._principal() if principal else None
+        out = {"volume": self.volume, "mass": self.mass}
+        if self.center_of_mass is not None:
+            out["center_of_mass"] = self.center_of_mass
+        if self.inertia_com is not None:
+            out["inertia_com"] = self.inertia_com
+        if found is not None:
+            out["principal_moments"] = found.moments_error
+            if found.axes_error:
+                out["principal_axes_rad"] = list(found.axes_error)
         if self.input_resolution:
             out["input_resolution"] = dict(self.input_resolution)
         return out
@@ -153,7 +175,7 @@ def _center_and_inertia(moments, length, rho, volume_s, rel_rho):
         com.append(_quotient(num * unit_n, r_d * 4 * m0 * unit_d, low))
     error_com = eg * _quotient(unit_n, unit_d, s) + _round_error(com)
     if moments.order < 2:
-        return np.array(com), error_com, None, 0.0
+        return np.array(com), error_com, None, None
     ec = (moments.second_error / 120 + (e0 / 6) * gmax ** 2 + volume_s * (2 * gmax * eg + eg ** 2)) * 1.01
     inertia = _inertia(m0, first, ints[4:], exp, length, rho)
     scale = _quotient(rho[0] * unit_n ** 5, rho[1] * unit_d ** 5, rho[2] + 5 * s)
@@ -217,6 +239,9 @@ class MassProperties:
             object.__setattr__(self, "center_of_mass", frozen_array(self.center_of_mass, (3,), name="center_of_mass"))
         if self.inertia_com is not None:
             object.__setattr__(self, "inertia_com", frozen_array(self.inertia_com, (3, 3), name="inertia_com"))
+        # The principal bounds are this result's, found when first asked for (replace() rebinds them).
+        source = None if self.inertia_com is None else (lambda: self.principal)
+        object.__setattr__(self, "error", replace(self.error, principal_source=source))
 
     @classmethod
     def from_moments(cls, moments, *, density=None, mass=None, unit=None, pose=None, path=None):
@@ -275,7 +300,7 @@ class MassProperties:
         area_n, area_d = float(moments.area2).as_integer_ratio()
         surface_area = _quotient(area_n * unit_n ** 2, 2 * area_d * unit_d ** 2, 2 * s)
         com = inertia = None
-        error_com = error_inertia = 0.0
+        error_com = error_inertia = None
         if moments.order >= 1:
             com, error_com, inertia, error_inertia = _center_and_inertia(
                 moments, length, rho, volume_s, rel_volume if mass is not None else 0.0)

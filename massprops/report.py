@@ -100,7 +100,7 @@ def _result_dict(result, omega, about, only, extra):
         out["angular_momentum"] = {"local": local, "global": world}
         out["kinetic_energy"] = p.kinetic_energy(omega)
     # no eigen-decomposition unless asked
-    error = p.error.as_dict(p.principal if p.inertia_com is not None and want("principal") else None)
+    error = p.error.as_dict(principal=want("principal"))
     # Bounds only for what was computed (volume and mass always are).
     out["error"] = {key: bound for key, bound in error.items()
                     if _ERROR_OF.get(key, key) in out or key in ("volume", "mass", "input_resolution")}

@@ -158,3 +158,35 @@ def test_pose_refuses_what_is_not_a_rotation_and_translation():
         massprops.Pose(translation=[np.nan, 0.0, 0.0])
     with pytest.raises(OptionError, match="Euler angles must be finite"):
         massprops.Pose.from_euler("xyz", [np.inf, 0.0, 0.0])
+
+
+def _json_bounds(path):
+    import json
+    from click.testing import CliRunner
+    from massprops.cli import main
+    result = CliRunner().invoke(main, ["props", str(path), "--format", "json"])
+    assert result.exit_code == 0, result.output
+    obj = json.loads(result.output)
+    return (obj[0] if isinstance(obj, list) else obj)["error"]
+
+
+@pytest.mark.parametrize("name", ["l_bracket_rotated.stl", "hollow_sphere.obj", "cube.stl", "torus.obj",
+                                  "cylinder_at_1e6.stl", "examples/overlapping_boxes.stl"])
+def test_every_bound_the_api_returns_is_the_one_json_prints(name):
+    """API and JSON give the same bound for every quantity, the principal ones included, each one computed."""
+    from pathlib import Path
+    path = Path(__file__).resolve().parent.parent / "sample_meshes" / name
+    error = massprops.mass_properties(path).properties.error
+    printed = _json_bounds(path)
+    for key in ("volume", "mass", "center_of_mass", "inertia_com", "principal_moments"):
+        assert getattr(error, key) == printed[key] and getattr(error, key) > 0, key
+    # An axis in a degenerate group is fixed by convention within its subspace (bound 0 there, docs/conventions.md).
+    assert list(error.principal_axes_rad) == printed["principal_axes_rad"]
+
+
+def test_a_quantity_not_computed_has_no_bound():
+    """With only the volume, the other bounds are None (not a zero that claims exactness)."""
+    error = massprops.mass_properties(solids.l_bracket(3.0, 1.0, 0.5), only="volume").properties.error
+    assert error.volume > 0
+    assert error.center_of_mass is None and error.inertia_com is None
+    assert error.principal_moments is None and error.principal_axes_rad is None

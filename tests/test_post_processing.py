@@ -34,7 +34,7 @@ def _fraction_center_and_inertia(moments, length, rho, m0, e0, volume_s, rho_rel
     com = [float((Fraction(r) + x * Fraction(2) ** moments.scale_exp) * factor) for r, x in zip(moments.reference, g)]
     error_com = eg * float(length[0]) + _round_error(com)
     if moments.order < 2:
-        return com, error_com, None, 0.0
+        return com, error_com, None, None
     c = [[Fraction(moments.second[i, j]) / 120 - volume_s * g[i] * g[j] for j in range(3)] for i in range(3)]
     ec = (moments.second_error / 120 + (e0 / 6) * gmax ** 2 + float(volume_s) * (2 * gmax * eg + eg ** 2)) * 1.01
     trace = c[0][0] + c[1][1] + c[2][2]
@@ -65,7 +65,7 @@ def fraction_post_processing(moments, *, density=None, mass=None, unit=None):
         error_volume = rel_volume * float(volume) * 1.01 + _round_error([volume])
         error_mass = (0.0 if mass is not None else rel_volume * float(total) * 1.01) + _round_error([total])
         surface_area = float(Fraction(moments.area2) / 2 * length ** 2)
-        com, error_com, inertia, error_inertia = None, 0.0, None, 0.0
+        com, error_com, inertia, error_inertia = None, None, None, None
         if moments.order >= 1:
             com, error_com, inertia, error_inertia = _fraction_center_and_inertia(
                 moments, (length, unit), rho, m0, e0, volume_s, rho_rel_error)

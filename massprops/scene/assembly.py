@@ -228,8 +228,8 @@ def _combine(local, index, rotation, translation, unit):
     """
     with np.errstate(over="ignore", invalid="ignore"):
         total = _summed(local, index, rotation, translation, unit)
-    values = [total.volume, total.mass, total.surface_area, total.error.mass, total.error.center_of_mass,
-              total.error.inertia_com]
+    values = [total.volume, total.mass, total.surface_area, total.error.mass]
+    values += [bound for bound in (total.error.center_of_mass, total.error.inertia_com) if bound is not None]
     for array in (total.center_of_mass, total.inertia_com):
         values += [] if array is None else np.ravel(array).tolist()
     if not all(map(math.isfinite, values)):
