@@ -43,6 +43,7 @@ def _polyline(segments):
 
 def _traces(picture, go):
     traces = []
+    several = len(picture.rows) > 1          # a robot or a scene: the notes explain the colours, not the legend
     for s in picture.surfaces:
         used = s.faces
         traces.append(go.Mesh3d(
@@ -60,7 +61,7 @@ def _traces(picture, go):
         traces.append(go.Scatter3d(
             x=x, y=y, z=z, mode=mode, text=text, textposition="top center", name=ln.label or ln.name,
             line={"color": ln.color, "width": ln.width, "dash": "dash" if ln.dashed else "solid"},
-            textfont={"color": ln.color, "size": 12}, hoverinfo="name", showlegend=not ln.label,
+            textfont={"color": ln.color, "size": 12}, hoverinfo="name", showlegend=not (ln.label or several),
             meta=[ln.group, 1.0]))
     for m in picture.markers:
         traces.append(go.Scatter3d(
@@ -68,7 +69,7 @@ def _traces(picture, go):
             marker={"color": m.color, "size": 7 if m.kind == "com" else 6,
                     "symbol": "circle" if m.kind == "com" else "diamond-open",
                     "line": {"color": "#000000", "width": 1}},
-            hoverinfo="name+x+y+z", meta=[m.group, 1.0]))
+            hoverinfo="name+x+y+z", showlegend=not several, meta=[m.group, 1.0]))
     return traces
 
 

@@ -72,24 +72,36 @@ def _limits(picture):
     return [(float(box[0][k] - pad), float(box[1][k] + pad)) for k in range(3)]
 
 
-def _legend(fig, cell, picture):
+def _kind(name):
+    """A legend entry's text: a link's items share one entry ("base_link: computed box" → "computed box")."""
+    return name.split(": ", 1)[1] if ": " in name else name
+
+
+def _legend(cell, picture):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     handles, seen = [], set()
-    for s in picture.surfaces[:6]:
-        handles.append(Patch(color=s.color, label=s.name))
+    for s in picture.surfaces:
+        if s.group not in seen and len(seen) < 6:
+            seen.add(s.group)
+            handles.append(Patch(color=s.color, label=s.group))
     for ln in picture.lines:
-        key = ln.label.split(" = ")[0] if ln.label else ln.name.split(" ")[0] + (" declared" if ln.dashed else "")
-        if key in seen or len(handles) > 12:
-            continue
-        seen.add(key)
-        handles.append(Line2D([], [], color=ln.color, linestyle="--" if ln.dashed else "-", label=ln.label or ln.name))
-    for m in picture.markers[:3]:
-        handles.append(Line2D([], [], marker="o" if m.kind == "com" else "D", linestyle="none", color=m.color,
-                              markeredgecolor="black" if m.kind == "com" else m.color,
-                              markerfacecolor=m.color if m.kind == "com" else "none", label=m.name))
+        label = ln.label or _kind(ln.name)
+        if label not in seen:
+            seen.add(label)
+            handles.append(Line2D([], [], color="#555555" if ": " in ln.name else ln.color,
+                                  linestyle="--" if ln.dashed else "-", label=label))
+    for m in picture.markers:
+        label = _kind(m.name)
+        if label not in seen:
+            seen.add(label)
+            com = m.kind == "com"
+            handles.append(Line2D([], [], marker="o" if com else "D", linestyle="none",
+                                  markeredgecolor="black" if com else "#555555",
+                                  markerfacecolor=m.color if com and ": " not in m.name else "none" if not com
+                                  else "#555555", label=label))
     cell.axis("off")
-    cell.legend(handles=handles, loc="upper left", fontsize=7, frameon=False)
+    cell.legend(handles=handles[:14], loc="upper left", fontsize=7, frameon=False)
 
 
 def _panel_text(picture):
@@ -114,8 +126,8 @@ def write_png(picture, path):
             _view(grid[row][col], picture, h, v, limits)
             grid[row][col].set_title(title, fontsize=10)
         cell = grid[1][1]
-        _legend(fig, cell, picture)
-        cell.text(0.0, 0.55, _panel_text(picture), family="monospace", fontsize=6.5, va="top", ha="left",
+        _legend(cell, picture)
+        cell.text(0.0, 0.5, _panel_text(picture), family="monospace", fontsize=6.5, va="top", ha="left",
                   transform=cell.transAxes)
         fig.suptitle(picture.title, fontsize=11)
         fig.tight_layout()
