@@ -4,7 +4,7 @@ plotly.js is embedded in the page (``include_plotlyjs=True``, about 4.7 MB),
 so the file opens from disk with no network, and a CI job can keep it as an
 artifact.  The side panel holds the numbers and the table; selecting a row
 focuses its group (the others fade, the view zooms to it); "show all"
-returns.
+returns.  Opening the page as ``REPORT.html#focus=NAME`` focuses NAME at once.
 """
 
 from __future__ import annotations
@@ -141,6 +141,7 @@ _SCRIPT = """
   var all = document.getElementById('showall');
   if (all) { all.addEventListener('click', function (event) { event.preventDefault(); focus(null); }); }
   window.massprops = {focus: focus};
+  if (location.hash.indexOf('#focus=') === 0) { focus(decodeURIComponent(location.hash.slice(7))); }
 })();
 """
 

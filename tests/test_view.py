@@ -1,0 +1,164 @@
+"""massprops view: the geometry of the drawing (closed forms) and the PNG, checked by its pixels."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from massprops.io.stl import write_binary
+from massprops.validation import solids
+from massprops.view.geometry import boundary_faces, decimated, equivalent_box, equivalent_ellipsoid
+
+from conftest import random_rotation
+
+sides = st.floats(min_value=1e-3, max_value=1e3, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(sides, sides, sides, st.floats(min_value=1e-6, max_value=1e6))
+def test_a_cuboid_gives_back_its_half_extents(a, b, c, mass):
+    moments = mass / 3 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])     # uniform box, half-extents a, b, c
+    extents = equivalent_box(moments, mass)
+    assert extents.feasible
+    # Squares come from sums and differences of the moments: their error is a few ulps of the largest square.
+    assert np.allclose(extents.half ** 2, np.array([a, b, c]) ** 2, rtol=1e-12, atol=1e-14 * max(a, b, c) ** 2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(sides, sides, sides, st.floats(min_value=1e-6, max_value=1e6))
+def test_an_ellipsoid_gives_back_its_semi_axes(a, b, c, mass):
+    moments = mass / 5 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+    extents = equivalent_ellipsoid(moments, mass)
+    assert extents.feasible
+    # Squares come from sums and differences of the moments: their error is a few ulps of the largest square.
+    assert np.allclose(extents.half ** 2, np.array([a, b, c]) ** 2, rtol=1e-12, atol=1e-14 * max(a, b, c) ** 2)
+
+
+def test_moments_that_break_the_triangle_inequality_have_no_box():
+    extents = equivalent_box([3.0, 1.0, 1.0], 1.0)          # I1 > I2 + I3
+    assert not extents.feasible
+    assert extents.half[0] == 0 and extents.half[1] > 0 and extents.half[2] > 0
+
+
+def test_boundary_of_two_tetrahedra_and_decimation():
+    faces = boundary_faces([[0, 1, 2, 3], [1, 2, 3, 4]])
+    assert len(faces) == 6                                # the shared face is inside
+    assert not any(sorted(f) == [1, 2, 3] for f in faces.tolist())
+    kept, shown, total = decimated(np.arange(3000).reshape(1000, 3), 100)
+    assert (shown, total) == (100, 1000) and len(kept) == 100 and len(np.unique(kept[:, 0])) == 100
+
+
+def _part(tmp_path, mesh, name="part.stl", **options):
+    from massprops import report
+    from massprops.compute import mass_properties
+    from massprops.view.picture import display_triangles
+    path = str(tmp_path / name)
+    write_binary(path, mesh.triangles)
+    result = mass_properties(path, **options)
+    from massprops.io import read
+    vertices, faces = display_triangles(read(path))
+    return result, report.result_dict(result), vertices, faces
+
+
+def test_the_drawn_box_of_a_rotated_cuboid_is_the_cuboid_and_its_axes_the_principal_axes(tmp_path):
+    from massprops.frames import Pose
+    from massprops.view.picture import part_picture
+    rotation, shift = random_rotation(7), np.array([3.0, -1.0, 2.0])
+    size = np.array([1.0, 2.0, 4.0])
+    mesh = solids.box(tuple(size))
+    corners = mesh.vertices @ rotation.T + shift                # where the cuboid's corners are, globally
+    result = _part(tmp_path, mesh, pose=Pose(rotation, shift))
+    picture = part_picture([result])
+    box = next(ln for ln in picture.lines if ln.name.startswith("equivalent box"))
+    drawn = np.unique(np.round(box.segments.reshape(-1, 3), 9), axis=0)
+    assert len(drawn) == 8
+    for corner in corners:
+        assert np.min(np.linalg.norm(drawn - corner, axis=1)) < 1e-9
+    # Principal axes ascending: the longest edge (z, 4) has the smallest moment; axis k along rotation column.
+    axes = [ln for ln in picture.lines if ln.name in ("I1", "I2", "I3")]
+    assert [ln.name for ln in axes] == ["I1", "I2", "I3"]
+    for ln, column in zip(axes, (2, 1, 0)):
+        start, end = ln.segments[0]
+        assert np.allclose(start, shift)
+        direction = (end - start) / np.linalg.norm(end - start)
+        assert abs(abs(direction @ rotation[:, column]) - 1) < 1e-12
+    com = next(m for m in picture.markers if m.kind == "com")
+    assert np.allclose(com.point, shift)
+
+
+def test_a_big_mesh_is_drawn_decimated_and_the_page_says_so(tmp_path):
+    from massprops.view.picture import part_picture
+    result = _part(tmp_path, solids.uv_sphere(64, 32))
+    picture = part_picture([result], limit=500)
+    total = len(result[3])
+    assert picture.surfaces[0].shown == 500 < total
+    assert any(f"drawn with 500 of {total} triangles" in alert for alert in picture.alerts)
+
+
+def _pixels(image, color, tolerance=40):
+    rgb = image[..., :3].astype(int)
+    return np.all(np.abs(rgb - np.array(color)) <= tolerance, axis=-1)
+
+
+def test_png_has_the_com_at_its_projected_place_and_the_axis_glyphs(tmp_path, runner):
+    import matplotlib.image
+    from massprops.cli import main
+    wedge = solids.prism([(0, 0), (3, 0), (0, 3)], [(0, 1, 2)], 1.0)    # centre of mass (1, 1, 0.5)
+    stl = str(tmp_path / "wedge.stl")
+    write_binary(stl, wedge.triangles)
+    png = str(tmp_path / "wedge.png")
+    result = runner.invoke(main, ["view", stl, "-o", png])
+    assert result.exit_code == 0, result.output
+    image = (matplotlib.image.imread(png) * 255).round()
+    height, width = image.shape[:2]
+    front = image[: height // 2, : width // 2]                        # the front view (x–z) is top left
+    part = _pixels(front, (107, 174, 214), 12)
+    ys, xs = np.nonzero(part)
+    left, right, top, bottom = xs.min(), xs.max(), ys.min(), ys.max()
+    assert right - left > 100 and bottom - top > 20
+    com_y, com_x = np.nonzero(_pixels(front, (255, 0, 255), 30))
+    assert len(com_x) > 20
+    # x = 1 of 0..3 (a third from the left), z = 0.5 of 0..1 (half-way)
+    assert abs(com_x.mean() - (left + (right - left) / 3)) < 3
+    assert abs(com_y.mean() - (top + bottom) / 2) < 3
+    for color in ((228, 26, 28), (44, 160, 44), (26, 26, 255)):       # principal axes 1, 2, 3
+        assert _pixels(image, color, 30).sum() > 50
+    assert _pixels(image, (255, 127, 0), 30).sum() > 200              # the equivalent box
+
+
+def test_view_refuses_an_unknown_output_suffix(box, runner, tmp_path):
+    from massprops.cli import main
+    result = runner.invoke(main, ["view", box, "-o", str(tmp_path / "out.svg")])
+    assert result.exit_code == 2
+    assert ".html" in result.output and ".png" in result.output
+
+
+def test_view_goes_on_past_a_bad_file_and_exits_1(box, runner, tmp_path):
+    from massprops.cli import main
+    out = tmp_path / "out.png"
+    result = runner.invoke(main, ["view", str(tmp_path / "missing.stl"), box, "-o", str(out)])
+    assert result.exit_code == 1
+    assert "missing.stl" in result.output and out.exists()
+
+
+@pytest.mark.parametrize("glyph", ["box", "ellipsoid"])
+def test_view_applies_unit_and_density(box, runner, tmp_path, glyph):
+    import re
+    from massprops.cli import main
+    from massprops.view.html import page
+    out = tmp_path / "out.png"
+    result = runner.invoke(main, ["view", box, "-o", str(out), "--glyph", glyph, "--unit", "mm", "--density", "2000"])
+    assert result.exit_code == 0, result.output
+    from massprops import report
+    from massprops.compute import mass_properties
+    from massprops.view.picture import part_picture
+    from massprops.io import read
+    from massprops.view.picture import display_triangles
+    res = mass_properties(box, unit="mm", density=2000.0)
+    picture = part_picture([(res, report.result_dict(res), *display_triangles(read(box)))], glyph=glyph)
+    assert picture.length_unit == "m"
+    drawn = picture.surfaces[0].vertices
+    assert np.allclose(drawn.max(axis=0) - drawn.min(axis=0), [1e-3, 2e-3, 3e-3], rtol=1e-12)
+    text = page(picture)
+    mass = 1 * 2 * 3 * 1e-9 * 2000                                      # 1 × 2 × 3 mm at 2000 kg/m³
+    assert re.search(r"mass\s+" + re.escape(f"{mass:g}"), text)
