@@ -162,3 +162,26 @@ def test_view_applies_unit_and_density(box, runner, tmp_path, glyph):
     text = page(picture)
     mass = 1 * 2 * 3 * 1e-9 * 2000                                      # 1 × 2 × 3 mm at 2000 kg/m³
     assert re.search(r"mass\s+" + re.escape(f"{mass:g}"), text)
+
+
+def test_scene_html_draws_every_part_and_the_total(runner, tmp_path):
+    import os
+    from massprops.cli import main
+    from massprops.scene import assembly
+    from massprops.view.scene import scene_picture
+    from massprops.scene.report import scene_dict
+    here = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "scene", "arm.toml")
+    out = tmp_path / "arm.png"
+    result = runner.invoke(main, ["scene", here, "--html", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_size > 10_000
+    computed = assembly.compute_scene(assembly.load_scene(here))
+    picture = scene_picture(computed, scene_dict(computed))
+    names = [p.name for p in computed.scene.placed_parts()]
+    assert [s.name for s in picture.surfaces] == names
+    total = next(m for m in picture.markers if m.name == "total centre of mass")
+    assert np.allclose(total.point, computed.total.center_of_mass)
+    # every part's drawn triangles enclose its centre of mass's box (the part is drawn where it is)
+    for surface, props in zip(picture.surfaces, computed.parts):
+        lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
+        assert np.all(props.center_of_mass_global >= lo - 1e-12) and np.all(props.center_of_mass_global <= hi + 1e-12)
