@@ -59,7 +59,7 @@ def _view(ax, picture, h, v, limits):
     ax.set_ylabel(f"{_NAMES[v]} [{unit}]")
     for axis in (ax.xaxis, ax.yaxis):
         formatter = ScalarFormatter(useOffset=False)
-        formatter.set_powerlimits((-3, 4))
+        formatter.set_powerlimits((-5, 6))          # plain decimals for parts in metres (0.001), no offset
         axis.set_major_formatter(formatter)
     ax.grid(True, color="#dddddd", linewidth=0.5, zorder=0)
 
