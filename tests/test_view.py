@@ -185,3 +185,31 @@ def test_scene_html_draws_every_part_and_the_total(runner, tmp_path):
     for surface, props in zip(picture.surfaces, computed.parts):
         lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
         assert np.all(props.center_of_mass_global >= lo - 1e-12) and np.all(props.center_of_mass_global <= hi + 1e-12)
+
+
+def test_robot_props_html_takes_one_model(runner, tmp_path):
+    import os
+    from massprops.cli import main
+    model = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "robot", "massprops_robot", "urdf",
+                         "robot.urdf")
+    out = tmp_path / "robot.png"
+    result = runner.invoke(main, ["robot", "props", model, "--html", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_size > 10_000
+    result = runner.invoke(main, ["robot", "props", model, model, "--html", str(out)])
+    assert result.exit_code == 2 and "one model" in result.output
+
+
+def test_a_volume_mesh_is_drawn_by_its_boundary(runner, tmp_path):
+    import os
+    import meshio
+    from massprops.view.picture import display_triangles
+    from massprops.io import read
+    path = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "examples", "bar.vtu")
+    vertices, faces = display_triangles(read(path))
+    cells = sum(len(block.data) for block in meshio.read(path).cells)
+    assert 0 < len(faces) < 4 * 6 * cells                       # boundary only, not every cell's faces
+    # every edge of a closed boundary is shared by exactly two of its triangles
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(counts == 2)

@@ -159,10 +159,12 @@ def page(picture):
     plot = pio.to_html(fig, include_plotlyjs=True, full_html=False, div_id="view", default_width="100%",
                        default_height="100vh", config={"displaylogo": False, "responsive": True})
     groups = {row.group: picture.bounds(row.group).tolist() for row in picture.rows}
+    # Names come from the files: "</" would end the script element, so it is written "<\/" (same string in JS).
+    groups_json = json.dumps(groups).replace("</", "<\\/")
     return ("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\">"
             f"<title>massprops: {html.escape(picture.title)}</title><style>{_STYLE}</style></head>\n<body>"
             f'<div id="plotbox">{plot}</div>\n<div id="side">{_side(picture)}</div>\n'
-            f"<script>{_SCRIPT % json.dumps(groups)}</script></body></html>\n")
+            f"<script>{_SCRIPT % groups_json}</script></body></html>\n")
 
 
 def write_html(picture, path):
