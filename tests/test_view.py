@@ -213,3 +213,18 @@ def test_a_volume_mesh_is_drawn_by_its_boundary(runner, tmp_path):
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     assert np.all(counts == 2)
+
+
+def test_faces_that_cross_are_highlighted_only_when_they_do(tmp_path):
+    from massprops.view.picture import part_picture
+    apart = solids.combine(solids.box((1, 1, 1)), solids.box((1, 1, 1), (3, 0, 0)))
+    across = solids.combine(solids.box((2, 2, 2)), solids.box((2, 2, 2), (1, 1, 1)))
+    drawn = part_picture([_part(tmp_path, apart, "apart.stl")]).surfaces
+    assert not [s for s in drawn if s.name.endswith("faces that cross")]
+    picture = part_picture([_part(tmp_path, across, "across.stl")])
+    (crossing,) = [s for s in picture.surfaces if s.name.endswith("faces that cross")]
+    # The side faces of each cube that the other cube's faces pass through; none of the far faces.
+    centres = crossing.vertices[crossing.faces].mean(axis=1)
+    assert len(crossing.faces) > 0
+    assert np.all(np.abs(centres - 0.5).max(axis=1) < 1.5)        # far faces (x = -1 or x = 2, ...) are not drawn
+    assert any("overlapping" in alert for alert in picture.alerts)

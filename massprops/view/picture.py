@@ -28,6 +28,7 @@ COLORS = {
     "glyph": "#ff7f00",           # equivalent box / ellipsoid
     "axes": ("#e41a1c", "#2ca02c", "#1a1aff"),     # principal axes 1, 2, 3
     "total": "#000000",
+    "crossing": "#d62728",        # faces that cross other faces (overlaps, self-intersections)
 }
 STATUS_COLORS = {"ok": "#2ca02c", "mismatch": "#ff7f00", "invalid": "#d62728", "missing": "#7f7f7f",
                  "no-geometry": "#7f7f7f", "massless": "#7f7f7f", "error": "#9467bd"}
@@ -198,9 +199,16 @@ def part_picture(parts, *, glyph="box", limit=DISPLAY_TRIANGLES, about=()):
         lines += axis_lines(name, com, axes, principal.moments, reach, inertia_unit)
         checks = result.checks or {}
         if checks.get("overlap"):
-            alerts.append(f"{name}: overlapping bodies counted once (overlap volume {checks['overlap']:.4g})")
+            alerts.append(f"{name}: overlapping bodies counted once (overlap volume {checks['overlap']:.4g}); "
+                          "the faces that cross are drawn red")
         if checks.get("self_intersection") == "resolved":
-            alerts.append(f"{name}: the surface crosses itself; the region it encloses was integrated")
+            alerts.append(f"{name}: the surface crosses itself; the region it encloses was integrated; the faces "
+                          "that cross are drawn red")
+        if checks.get("overlap") or checks.get("self_intersection") == "resolved":
+            crossing = crossing_faces(vertices, faces)
+            if len(crossing):
+                surfaces.append(Surface(f"{name}: faces that cross", name, placed, crossing, COLORS["crossing"],
+                                        0.45, len(crossing), len(crossing)))
         if not feasible:
             alerts.append(f"{name}: the moments break the triangle inequality; no uniform {glyph} has them")
         notes.append(f"{name}: equivalent uniform {glyph} (same mass and principal moments) in orange; principal "
@@ -215,6 +223,14 @@ def part_picture(parts, *, glyph="box", limit=DISPLAY_TRIANGLES, about=()):
                    tuple(notes), tuple(alerts), ("part", f"mass [{mass_unit}]", f"volume [{length_unit}³]",
                                                  f"centre of mass [{length_unit}]"), tuple(rows))
 
+
+
+def crossing_faces(vertices, faces):
+    """The faces (k, 3) that cross another face beyond what they share (exact predicates), for highlighting."""
+    from ..core.intersect import ExactGeometry
+    faces = np.asarray(faces, dtype=np.int64)
+    pairs = ExactGeometry(np.asarray(vertices, dtype=float)).crossing_pairs(faces)
+    return faces[np.unique(pairs)] if pairs.size else faces[:0]
 
 
 def display_triangles(mesh):

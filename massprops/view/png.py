@@ -82,9 +82,10 @@ def _legend(cell, picture):
     from matplotlib.patches import Patch
     handles, seen = [], set()
     for s in picture.surfaces:
-        if s.group not in seen and len(seen) < 6:
-            seen.add(s.group)
-            handles.append(Patch(color=s.color, label=s.group))
+        label = _kind(s.name) if ": " in s.name else s.group
+        if label not in seen and len(seen) < 6:
+            seen.add(label)
+            handles.append(Patch(color=s.color, alpha=min(1.0, s.opacity * 1.5), label=label))
     for ln in picture.lines:
         label = ln.label or _kind(ln.name)
         if label not in seen:
