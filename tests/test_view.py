@@ -228,3 +228,35 @@ def test_faces_that_cross_are_highlighted_only_when_they_do(tmp_path):
     assert len(crossing.faces) > 0
     assert np.all(np.abs(centres - 0.5).max(axis=1) < 1.5)        # far faces (x = -1 or x = 2, ...) are not drawn
     assert any("overlapping" in alert for alert in picture.alerts)
+
+
+def test_names_from_a_file_cannot_end_the_page_script():
+    from massprops.view.html import page
+    from massprops.view.picture import Picture, Row, Surface
+    hostile = "</script><script>alert(1)</script>"
+    vertices, faces = np.eye(3), np.array([[0, 1, 2]])
+    picture = Picture(hostile, "m", (Surface(hostile, hostile, vertices, faces, "#6baed6"),),
+                      rows=(Row(hostile, (hostile,)),), columns=("link",))
+    from html.parser import HTMLParser
+
+    class Scripts(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.inside, self.bodies = False, []
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "script":
+                self.inside = True
+                self.bodies.append("")
+
+        def handle_endtag(self, tag):
+            self.inside = self.inside and tag != "script"
+
+        def handle_data(self, data):
+            if self.inside:
+                self.bodies[-1] += data
+
+    scripts = Scripts()
+    scripts.feed(page(picture))
+    assert scripts.bodies and not any(body.strip() == "alert(1)" for body in scripts.bodies)
+    assert any("alert(1)" in body and "bounds" in body for body in scripts.bodies)    # kept, as a string
