@@ -260,3 +260,14 @@ def test_names_from_a_file_cannot_end_the_page_script():
     scripts.feed(page(picture))
     assert scripts.bodies and not any(body.strip() == "alert(1)" for body in scripts.bodies)
     assert any("alert(1)" in body and "bounds" in body for body in scripts.bodies)    # kept, as a string
+
+
+def test_without_plotly_the_page_says_how_to_get_it(box, runner, tmp_path, monkeypatch):
+    import sys
+    from massprops.cli import main
+    monkeypatch.setitem(sys.modules, "plotly", None)
+    monkeypatch.setitem(sys.modules, "plotly.graph_objects", None)
+    monkeypatch.setitem(sys.modules, "plotly.io", None)
+    result = runner.invoke(main, ["view", box, "-o", str(tmp_path / "out.html")])
+    assert result.exit_code == 1
+    assert "pip install 'massprops[view]'" in result.output and "Traceback" not in result.output
