@@ -36,3 +36,21 @@ def test_readme_pictures(name, args, colors, runner, monkeypatch):
     assert f"wrote {out}" in result.output, result.output
     for color in colors:
         assert _count(out, color) > 100, color
+
+
+def test_readme_picture_of_the_robot_page_in_a_browser(runner, monkeypatch, tmp_path):
+    """The page itself as Chromium shows it (the README's view of `robot check --html`)."""
+    import shutil
+    from test_view_browser import _hue, _no_script_errors, _open
+    monkeypatch.chdir(ROOT)
+    page = tmp_path / "report.html"
+    result = runner.invoke(main, ["robot", "check", ROBOT, "--html", str(page)])
+    assert f"wrote {page}" in result.output, result.output
+    image, dom, console = _open(str(page), tmp_path)
+    _no_script_errors(console)
+    for color in ((44, 160, 44), (255, 127, 0), (214, 39, 40)):            # ok, mismatch, invalid
+        assert _hue(image, color).sum() > 100, color
+    for link in ("base_link", "flipped", "thin_plate", "product_sign"):
+        assert link in dom
+    PICTURES.mkdir(exist_ok=True)
+    shutil.copyfile(tmp_path / "shot0.png", PICTURES / "robot_report_html.png")

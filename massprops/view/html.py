@@ -43,12 +43,12 @@ def _polyline(segments):
 
 def _traces(picture, go):
     traces = []
-    several = len(picture.rows) > 1          # a robot or a scene: the notes explain the colours, not the legend
+    several = len(picture.rows) > 1          # a robot or a scene: the notes and the table's swatches explain colours
     for s in picture.surfaces:
         used = s.faces
         traces.append(go.Mesh3d(
             x=s.vertices[:, 0], y=s.vertices[:, 1], z=s.vertices[:, 2], i=used[:, 0], j=used[:, 1], k=used[:, 2],
-            color=s.color, opacity=s.opacity, flatshading=True, name=s.name, hoverinfo="name", showlegend=True,
+            color=s.color, opacity=s.opacity, flatshading=True, name=s.name, hoverinfo="name", showlegend=not several,
             lighting={"ambient": 0.65, "diffuse": 0.5, "specular": 0.05, "roughness": 0.9},
             meta=[s.group, s.opacity]))
     for ln in picture.lines:
@@ -83,7 +83,8 @@ def _side(picture):
         body = []
         for row in picture.rows:
             style = f' style="border-left: 6px solid {row.color}"' if row.color else ""
-            cells = "".join(f"<td>{esc(str(c))}</td>" for c in row.cells)
+            swatch = f'<span class="swatch" style="background: {row.swatch}"></span>' if row.swatch else ""
+            cells = "".join(f"<td>{swatch if k == 0 else ''}{esc(str(c))}</td>" for k, c in enumerate(row.cells))
             body.append(f'<tr data-group="{esc(row.group)}"{style}>{cells}</tr>')
         parts.append('<p class="hint">Select a row to focus it; <a href="#" id="showall">show all</a>.</p>'
                      f'<table id="rows"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>')
@@ -103,7 +104,9 @@ h1 { font-size: 15px; word-break: break-all; }
 table { border-collapse: collapse; font-size: 12px; }
 td, th { padding: 2px 5px; border-bottom: 1px solid #eee; text-align: left; vertical-align: top; }
 tr[data-group] { cursor: pointer; }
+td:first-child { white-space: nowrap; }
 tr.selected { background: #ffffb3; }
+.swatch { display: inline-block; width: 10px; height: 10px; margin-right: 4px; border: 1px solid #888; }
 pre { font-size: 11px; }
 """
 

@@ -75,11 +75,13 @@ class Marker:
 
 @dataclass(frozen=True)
 class Row:
-    """One row of the side table: its group (what selecting it focuses), cells, and a status colour."""
+    """One row of the side table: its group (what selecting it focuses), cells, a status colour, and the colour
+    its group is drawn in (``swatch``)."""
 
     group: str
     cells: tuple
     color: str = ""
+    swatch: str = ""
 
 
 @dataclass(frozen=True)

@@ -133,7 +133,7 @@ def robot_picture(path, settings, obj, *, glyph="box", limit=DISPLAY_TRIANGLES):
         declared = entry.get("declared") or {}
         rows.append(Row(link.name, (link.name, entry["status"], _fmt(entry.get("mass")), _fmt(declared.get("mass")),
                                     ", ".join(entry.get("diagnoses") or ()), entry.get("message") or ""),
-                        STATUS_COLORS.get(entry["status"], "")))
+                        STATUS_COLORS.get(entry["status"], ""), color))
     if shown_all < total_all:
         alerts.insert(0, f"drawn with {shown_all} of {total_all} triangles (display only; the numbers use all "
                          f"{total_all})")

@@ -42,13 +42,14 @@ def scene_picture(result, obj, *, glyph="box", limit=DISPLAY_TRIANGLES):
     length_unit, mass_unit, inertia_unit = units(unit)
     surfaces, alerts = _instances(scene, result, float(unit_factor(unit)) if unit else 1.0, limit)
     markers, lines, rows = [], [], []
+    colors = {s.name: s.color for s in surfaces}
     for placed, props in zip(scene.placed_parts(), result.parts):
         if props.center_of_mass is None:
             continue
         com = np.asarray(props.center_of_mass_global, dtype=float)
         markers.append(Marker(f"{placed.name}: centre of mass", placed.name, com, COLORS["com"]))
         rows.append(Row(placed.name, (placed.name, f"{props.mass:.6g}", "[" + ", ".join(f"{c:.4g}" for c in com)
-                                      + "]")))
+                                      + "]"), swatch=colors.get(placed.name, "")))
     total = result.total
     panel = ""
     if total is not None and total.inertia_com is not None:
