@@ -15,7 +15,7 @@ from massprops.core import thread_count
 from massprops.errors import OptionError
 from massprops.io.stl import write_binary
 
-HEAVY = ("trimesh", "scipy", "meshio", "matplotlib", "dask")
+HEAVY = ("trimesh", "scipy", "meshio", "matplotlib", "plotly", "dask")
 
 PROBE = """
 import json, sys

@@ -27,6 +27,7 @@ COMMANDS = {
     "accuracy": ("accuracy", "accuracy"),
     "spin": ("spin", "spin"),
     "robot": ("robot", "robot"),
+    "view": ("view", "view"),
 }
 
 

@@ -121,6 +121,12 @@ def pose_options(f):
     return f
 
 
+def about_option(f):
+    """--about X,Y,Z (repeatable): also the inertia about these global points."""
+    return click.option("--about", "about", multiple=True, type=Point(), metavar="X,Y,Z",
+                        help="Also report the inertia about this global point (repeatable).")(f)
+
+
 def _density_map(ctx, param, text):
     if text is None:
         return None                 # before the import: plain `props` stays light at start-up

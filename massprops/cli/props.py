@@ -11,8 +11,7 @@ from . import options
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=True))
 @options.material_options
 @options.pose_options
-@click.option("--about", "about", multiple=True, type=options.Point(), metavar="X,Y,Z",
-              help="Also report the inertia about this global point (repeatable).")
+@options.about_option
 @click.option("--omega", type=options.FINITE, nargs=3, default=None, metavar="WX WY WZ",
               help="Angular velocity in local axes [rad/s]: adds angular momentum and kinetic energy.")
 @options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal.")

@@ -98,9 +98,35 @@ def _emit(objects, output_format, text):
             options.echo_error(f"{obj['model']}: {obj['message']}")
 
 
-def _exit(objects, failing):
-    bad = any(obj.get("status") == "error" or any(link["status"] in failing for link in obj["links"])
-              for obj in objects)
+def html_option(f):
+    return click.option("--html", "html_path", type=click.Path(dir_okay=False), metavar="REPORT.html",
+                        help="Also write a self-contained web page: the robot at --joints, each link's computed and "
+                             "declared equivalent inertia box and centre of mass, and the table (one MODEL; needs "
+                             "plotly, the view extra).")(f)
+
+
+def _one_model_for_html(models, html_path):
+    if html_path and len(models) != 1:
+        raise click.UsageError(f"--html draws one model; {len(models)} were given — run once per model")
+
+
+def _html(models, settings, objects, html_path):
+    """Write the robot page for the one model, or say why not (one line); returns whether it failed."""
+    from ..view import write_picture
+    from ..view.robot import robot_picture
+    if objects[0].get("status") == "error":
+        options.echo_error(f"{html_path}: not written: {models[0]} could not be read")
+        return True
+    picture = options.guarded(robot_picture, models[0], settings, objects[0], path=models[0])
+    if picture is None or options.guarded(write_picture, picture, html_path, path=html_path) is None:
+        return True
+    click.echo(f"wrote {html_path}", err=True)
+    return False
+
+
+def _exit(objects, failing, failed=False):
+    bad = failed or any(obj.get("status") == "error" or any(link["status"] in failing for link in obj["links"])
+                        for obj in objects)
     options.exit_with(bad)
 
 
@@ -120,7 +146,8 @@ def robot():
 @model_options
 @options.format_option("text", "json", "csv")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
-def props(models, output_format, jobs, **kwargs):
+@html_option
+def props(models, output_format, jobs, html_path, **kwargs):
     """Every link's mass properties from its geometry, and the robot's total at --joints.
 
     Per link: mass, center of mass (link frame), inertia about it (link axes),
@@ -128,10 +155,11 @@ def props(models, output_format, jobs, **kwargs):
     it resolved to.  Exit 1 if a model or a link could not be computed.
     """
     from ..robot.report import props_text
+    _one_model_for_html(models, html_path)
     settings = _settings("props", **kwargs)
     objects = _analyze_all(models, settings, jobs)
     _emit(objects, output_format, props_text)
-    _exit(objects, ("error",))
+    _exit(objects, ("error",), bool(html_path) and _html(models, settings, objects, html_path))
 
 
 @robot.command("check")
@@ -149,8 +177,9 @@ def props(models, output_format, jobs, **kwargs):
 @click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
 @options.format_option("text", "json", "csv", "junit")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
+@html_option
 def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
-          jobs, **kwargs):
+          jobs, html_path, **kwargs):
     """Check each link's declared inertial: valid, and consistent with its geometry.
 
     Status per link: ok, mismatch (with diagnoses), invalid, missing,
@@ -165,6 +194,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
                         ("--diagnosis-rtol", diagnosis_rtol)):
         if not value > 0:
             raise click.BadParameter("must be positive", param_hint=name)
+    _one_model_for_html(models, html_path)
     settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
                          massless=tuple(massless), declared_only=declared_only, **kwargs)
     objects = _analyze_all(models, settings, jobs)
@@ -176,7 +206,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     if junit:
         with open(junit, "w", encoding="utf-8") as handle:
             handle.write(junit_xml(objects, failing))
-    _exit(objects, failing)
+    _exit(objects, failing, bool(html_path) and _html(models, settings, objects, html_path))
 
 
 @robot.command("write")

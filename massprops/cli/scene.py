@@ -21,7 +21,10 @@ from . import options
 @options.unpack_option
 @options.digits_option
 @options.format_option("text", "json", "csv")
-def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_format):
+@click.option("--html", "html_path", type=click.Path(dir_okay=False), metavar="SCENE.html",
+              help="Also write a self-contained web page: the assembly, each part's centre of mass, the total's "
+                   "principal axes and equivalent box (needs plotly, the view extra).")
+def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_format, html_path):
     """Mass properties of each part of SCENE and of the whole assembly.
 
     SCENE is a .toml assembly (parts with meshes, densities and poses; frames;
@@ -52,4 +55,28 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
         options.echo(report.to_csv(rows), nl=False)
     else:
         options.echo(scene_text(obj, digits=digits))
-    options.exit_with(0)
+    options.exit_with(bool(html_path) and not _html(loaded, result, obj, html_path, repair, max_unpacked))
+
+
+def _html(loaded, result, obj, html_path, repair, max_unpacked):
+    """Write the scene's page; the picture needs every part's COM and the total's inertia, computed if not asked."""
+    from ..compute import QUANTITIES
+    from ..scene import assembly
+    from ..scene.report import scene_dict
+    from ..view import write_picture
+    from ..view.scene import scene_picture
+    request = loaded.report
+    if not (request.parts and request.total and {"center_of_mass", "inertia"} <= request.quantities
+            and "total" in request.principal):
+        widened = replace(request, parts=True, total=True, quantities=frozenset(QUANTITIES),
+                          principal=request.principal | {"total"})
+        result = options.guarded(assembly.compute_scene, replace(loaded, report=widened), repair=repair,
+                                 max_unpacked=max_unpacked, path=loaded.path)
+        if result is None:
+            return False
+        obj = scene_dict(result)
+    picture = options.guarded(scene_picture, result, obj, path=loaded.path)
+    if picture is None or options.guarded(write_picture, picture, html_path, path=html_path) is None:
+        return False
+    click.echo(f"wrote {html_path}", err=True)
+    return True

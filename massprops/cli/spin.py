@@ -90,5 +90,5 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
         failed |= options.guarded(write_csv, out_csv, trajectory, path=out_csv) is None
     if plot_path:
         failed |= options.guarded(plot_trajectory, plot_path, trajectory,
-                                  f"{file}: {trajectory.method}, ω'0 = {tuple(omega)} rad/s") is None
+                                  f"{file}: {trajectory.method}, ω'0 = {tuple(omega)} rad/s", si=bool(unit)) is None
     options.exit_with(failed)

@@ -43,16 +43,30 @@ def write_csv(path, trajectory):
     return path
 
 
-def plot_trajectory(path, trajectory, title):
+def plot_trajectory(path, trajectory, title, *, si=False):
+    """Three panels against t: ω' (body axes), H (world axes) and K's relative drift from K0.
+
+    ``si``: the inertia was in kg·m² (a --unit was given), else in mass·length² of the mesh.
+    No axis uses offset notation; K, nearly constant, is shown as (K − K0)/K0 with K0 in the legend.
+    """
+    from matplotlib.ticker import ScalarFormatter
     plt = _pyplot()
+    momentum_unit, energy_unit = ("kg·m²/s", "J") if si else ("mass·length²/s", "mass·length²/s²")
     figure, panels = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     for k, name in enumerate("xyz"):
         panels[0].plot(trajectory.t, trajectory.omega[:, k], label=f"ω'{name}")
         panels[1].plot(trajectory.t, trajectory.momentum[:, k], label=f"H{name}")
-    panels[2].plot(trajectory.t, trajectory.energy, label="K")
-    for panel, label in zip(panels, ("ω' [rad/s], body axes", "H, world axes", "K")):
+    k0 = float(trajectory.energy[0])
+    drift = (trajectory.energy - k0) / k0 if k0 else trajectory.energy - k0
+    panels[2].plot(trajectory.t, drift, label=f"K0 = {k0:.9g} {energy_unit}")
+    labels = ("ω' [rad/s], body axes", f"H [{momentum_unit}], world axes",
+              "(K − K0) / K0 [–]" if k0 else f"K − K0 [{energy_unit}]")
+    for panel, label in zip(panels, labels):
         panel.set_ylabel(label)
-        panel.legend(loc="upper right", fontsize=8)
+        formatter = ScalarFormatter(useOffset=False, useMathText=True)
+        formatter.set_powerlimits((-3, 4))
+        panel.yaxis.set_major_formatter(formatter)
+        panel.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
         panel.grid(True, alpha=0.3)
     panels[2].set_xlabel("t [s]")
     figure.suptitle(title)
@@ -63,7 +77,7 @@ def _save(plt, figure, path):
     figure.tight_layout()
     try:
         with _writable(path):
-            figure.savefig(path, dpi=110)
+            figure.savefig(path, dpi=110, bbox_inches="tight")
     finally:
         plt.close(figure)
     return path
@@ -77,9 +91,9 @@ def plot_work_precision(path, rows, title):
         panel.loglog([r.elapsed_s for r in mine], [max(r.omega_error, 1e-17) for r in mine], marker="o",
                      linestyle="-" if method.startswith("split") else "--", label=method)
     panel.set_xlabel("run time [s]")
-    panel.set_ylabel("max relative error of ω' against the closed form")
+    panel.set_ylabel("max relative error of ω' against the closed form [–]")
     panel.grid(True, which="major", alpha=0.3)
-    panel.legend(fontsize=8)
+    panel.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     panel.set_title(title)
     return _save(plt, figure, path)
 

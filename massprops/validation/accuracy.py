@@ -310,12 +310,33 @@ def csv_text(rows):
     return buffer.getvalue()
 
 
-# Errors of exactly 0 are drawn at this floor on the log axis.
+def rows_from_csv(text):
+    """The rows :func:`csv_text` wrote, with what :func:`plot` reads (case, triangles, run times, errors)."""
+    rows = []
+    for record in csv.DictReader(io.StringIO(text)):
+        row = {"case": record["case"], "triangles": int(record["triangles"])}
+        for key, value in record.items():
+            if key.endswith("_s"):
+                row[key] = float(value)
+            for tool in ("massprops", "trimesh"):
+                for reference in ("smooth", "exact"):
+                    prefix = f"{tool}_{reference}_"
+                    if key.startswith(prefix) and value != "":
+                        row.setdefault(f"{tool}_{reference}", {})[key[len(prefix):]] = float(value)
+        rows.append(row)
+    return rows
+
+
+# Errors of exactly 0 are drawn at this floor of the log axis, with hollow markers and a dotted line.
 PLOT_FLOOR = 1e-18
 
 
 def plot(rows, path):
     """Log-log PNG of error against run time: smooth values (left), exact polyhedron (right).
+
+    Both panels share the error axis, which starts at :data:`PLOT_FLOOR`: an
+    error of exactly 0 (an exact result) is drawn on that floor with a hollow
+    marker.  The legend sits outside the panels, right of them.
 
     Returns
     -------
@@ -330,29 +351,43 @@ def plot(rows, path):
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        from matplotlib.lines import Line2D
     except ImportError:
         raise MassPropsError("the plot needs matplotlib, which is not installed",
                              fix="pip install 'massprops[plot]' (or pass --no-plot)") from None
-    figure, panels = plt.subplots(1, 2, figsize=(11, 4.5), sharex=True)
+    figure, panels = plt.subplots(1, 2, figsize=(12, 4.8), sharex=True, sharey=True)
     names = list(dict.fromkeys(r["case"] for r in rows))
     colours = dict(zip(names, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
+    top = PLOT_FLOOR
     for panel, reference, title in ((panels[0], "smooth", "against the smooth analytic solid"),
                                     (panels[1], "exact", "against the exact polyhedron")):
         for name in names:
             mine = [r for r in rows if r["case"] == name]
             for tool, marker, style in (("massprops", "o", "-"), ("trimesh", "x", "--")):
                 x = [r[f"{tool}_s"] for r in mine]
-                y = [max(r[f"{tool}_{reference}"]["rel_max"], PLOT_FLOOR) for r in mine]
-                panel.loglog(x, y, marker=marker, linestyle=style, color=colours[name], label=f"{tool} {name}")
+                error = [r[f"{tool}_{reference}"]["rel_max"] for r in mine]
+                y = [max(e, PLOT_FLOOR) for e in error]
+                top = max(top, *y)
+                panel.loglog(x, y, linestyle=style, color=colours[name], marker=marker, markersize=5)
+                exact = [(xi, PLOT_FLOOR) for xi, e in zip(x, error) if e == 0]
+                if exact:
+                    panel.plot(*zip(*exact), linestyle="none", marker="o", markersize=9, markerfacecolor="none",
+                               markeredgecolor=colours[name], markeredgewidth=1.5)
+        panel.axhline(PLOT_FLOOR, color="#777777", linestyle=":", linewidth=1)
         panel.set_title(title)
         panel.set_xlabel("run time [s]")
+        panel.set_ylabel("largest relative error [–] (volume, COM, inertia)")
         panel.grid(True, which="major", alpha=0.3)
-    panels[0].set_ylabel("largest relative error (volume, COM, inertia)")
-    panels[1].legend(fontsize=7, ncol=2)
+    panels[0].set_ylim(PLOT_FLOOR / 3, top * 10)
+    handles = [Line2D([], [], color=colours[name], label=name) for name in names]
+    handles += [Line2D([], [], color="#555555", marker="o", linestyle="-", label="massprops"),
+                Line2D([], [], color="#555555", marker="x", linestyle="--", label="trimesh"),
+                Line2D([], [], color="#777777", marker="o", markerfacecolor="none", linestyle=":",
+                       label=f"error exactly 0 (drawn at {PLOT_FLOOR:g})")]
+    figure.legend(handles=handles, loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=8, frameon=False)
     counts = [r["triangles"] for r in rows]
-    figure.suptitle(f"massprops (o, solid) vs trimesh (x, dashed): error against run time, "
-                    f"{min(counts)} to {max(counts)} triangles")
+    figure.suptitle(f"massprops vs trimesh: error against run time, {min(counts)} to {max(counts)} triangles")
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(figure)
     return path
