@@ -217,6 +217,21 @@ def test_coplanar_overlapping_faces_of_two_boxes():
     assert result.checks["overlap"] == pytest.approx(0.25)
 
 
+@pytest.mark.parametrize("boxes", [
+    # Found by the property below: boxes touching along edges (one shell of faces sharing vertices), one inward.
+    [((0, 65, 65), (65, 195, 130), 1), ((0, 195, 0), (65, 260, 65), -1), ((0, 0, 0), (65, 65, 65), 1)],
+    # A cube and a larger cube wound inward, touching at one corner: the signed volume is 1 - 8.
+    [((0, 0, 0), (1, 1, 1), 1), ((1, 1, 1), (3, 3, 3), -1)],
+    # Two outward cubes touching at a corner, and one sharing an edge with the first.
+    [((0, 0, 0), (1, 1, 1), 1), ((1, 1, 1), (2, 2, 2), 1), ((1, 1, 0), (2, 2, 1), 1)],
+])
+def test_bodies_touching_at_a_vertex_or_an_edge_are_told_apart(boxes):
+    """Welded, they are one shell of faces sharing vertices; each body still counts by its own winding."""
+    result = mass_properties(soup(box_soup(boxes)))
+    within_bounds(result.properties, grid_oracle(boxes))
+    assert any("wound inward" in w for w in result.warnings) == any(sign < 0 for *_, sign in boxes)
+
+
 def test_the_cli_gives_a_number_and_a_warning_for_a_self_crossing_file(tmp_path):
     bowtie = solids.prism([(0.0, 0.0), (2.0, 0.0), (0.0, 2.0), (2.0, 2.0)], _fan(4), 1.0)
     path = tmp_path / "bowtie.stl"

@@ -59,6 +59,10 @@ class Intersections:
     certified_shells, certified_vertices : int
         Shells, and vertices' stars, certified embedded as a whole (their face
         pairs need no test; see :meth:`ExactGeometry.certificates`).
+    pinched : int or None
+        Vertices whose faces do not turn once around them (two bodies
+        touching at a vertex or an edge, an edge of more than two faces);
+        None when not looked at (``within`` off, or too many faces).
     """
 
     self_found: np.ndarray
@@ -69,6 +73,7 @@ class Intersections:
     tests: int
     certified_shells: int = 0
     certified_vertices: int = 0
+    pinched: int | None = None
 
 
 class ExactGeometry:
@@ -132,7 +137,7 @@ class ExactGeometry:
         shells = np.ascontiguousarray(shells, dtype=np.int64)
         active = (np.ones(faces.shape[0], dtype=np.uint8) if active is None
                   else np.ascontiguousarray(active, dtype=np.uint8))
-        flags, examples, found, candidates, tests, shells_certified, vertices_certified = _extension().pairs(
+        flags, examples, found, candidates, tests, shells_certified, vertices_certified, pinched = _extension().pairs(
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
             int(max_examples), int(threads))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
@@ -145,7 +150,7 @@ class ExactGeometry:
         return Intersections(np.frombuffer(flags, dtype=np.uint8).astype(bool)[:n_shells],
                              np.frombuffer(examples, dtype=np.int64).reshape(-1, 2).copy(),
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),
-                             int(shells_certified), int(vertices_certified))
+                             int(shells_certified), int(vertices_certified), None if pinched < 0 else int(pinched))
 
     def crossing_pairs(self, faces, shells=None, n_shells=1, *, threads=None):
         """Every pair of faces that meet beyond the vertices and edges they share (by index).
@@ -164,8 +169,11 @@ class ExactGeometry:
 
         Returns
         -------
-        ndarray, shape (p, 2), int64
+        pairs : ndarray, shape (p, 2), int64
             Face index pairs, lower first, each once.
+        pinched : int or None
+            Vertices whose faces do not turn once around them (see
+            :attr:`Intersections.pinched`); None when unknown.
         """
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         if threads is None:
@@ -176,12 +184,13 @@ class ExactGeometry:
                                        threads=threads)
             involved = np.union1d(np.flatnonzero(first.self_found), first.shell_pairs.ravel())
             if involved.size == 0:
-                return np.zeros((0, 2), dtype=np.int64)
+                return np.zeros((0, 2), dtype=np.int64), first.pinched
             active = np.isin(shells, involved).astype(np.uint8)
         labels = np.zeros(faces.shape[0], dtype=np.int64)
         found = _extension().pairs(self.vertices, faces, labels, active, 1, True, False, -1, int(threads))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
-        return np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()
+        pinched = None if found[7] < 0 else int(found[7])
+        return (np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()), pinched
 
     def certificates(self, faces, shells=None, n_shells=1, *, threads=None):
         """Which vertex stars and which shells are certified to meet themselves only where they share.

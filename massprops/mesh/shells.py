@@ -64,8 +64,10 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})
     geometry = _geometry(vertices)
-    pairs = geometry.crossing_pairs(faces, labels, n_shells)
-    if pairs.size or repeated:
+    pairs, pinched = geometry.crossing_pairs(faces, labels, n_shells)
+    # A shell of faces that share vertices is one body only when its faces turn once around each vertex;
+    # bodies that touch at a vertex or an edge (perhaps one wound inward) are told apart by the arrangement.
+    if pairs.size or repeated or pinched != 0:
         return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
     if n_shells == 1:
         return Solid(mesh, {"self_intersection": "none"}, swept_volume=_snapped(geometry, vertices, faces),

@@ -231,7 +231,7 @@ def crossing_faces(vertices, faces):
     """The faces (k, 3) that cross another face beyond what they share (exact predicates), for highlighting."""
     from ..core.intersect import ExactGeometry
     faces = np.asarray(faces, dtype=np.int64)
-    pairs = ExactGeometry(np.asarray(vertices, dtype=float)).crossing_pairs(faces)
+    pairs, _ = ExactGeometry(np.asarray(vertices, dtype=float)).crossing_pairs(faces)
     return faces[np.unique(pairs)] if pairs.size else faces[:0]
 
 

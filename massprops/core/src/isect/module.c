@@ -142,10 +142,18 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
         PyObject *flags = PyBytes_FromStringAndSize((const char *)found.self_found, n_shells);
         PyObject *examples = PyBytes_FromStringAndSize((const char *)found.examples, 16 * found.n_examples);
         PyObject *pairs = PyBytes_FromStringAndSize((const char *)found.found, 32 * found.n_found);
+        /* Vertices whose faces do not turn once around them (a pinch, an edge of more than two faces):
+         * -1 when the stars were not built (then nothing is known). */
+        long long pinched = -1;
+        if (stars.flag) {
+            pinched = 0;
+            for (Py_ssize_t v = 0; v < n; v++)
+                pinched += stars.begin[v + 1] > stars.begin[v] && !(stars.flag[v] & STAR_CYCLE);
+        }
         if (flags && examples && pairs)
-            result = Py_BuildValue("NNNLLLL", flags, examples, pairs, (long long)found.candidates,
+            result = Py_BuildValue("NNNLLLLL", flags, examples, pairs, (long long)found.candidates,
                                    (long long)found.tests, (long long)stars.certified_shells,
-                                   (long long)stars.certified_vertices);
+                                   (long long)stars.certified_vertices, pinched);
         else {
             Py_XDECREF(flags);
             Py_XDECREF(examples);
@@ -284,7 +292,7 @@ static PyMethodDef methods[] = {
     {"pairs", py_pairs, METH_VARARGS,
      "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples (-1: every pair), threads)\n"
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
-     "certified vertices)"},
+     "certified vertices, vertices whose faces do not turn once around them or -1)"},
     {"certificates", py_certificates, METH_VARARGS,
      "certificates(vertices, faces, shell, n_shells, threads) -> (per vertex: star certified embedded,\n"
      "per shell: shell certified embedded), bytes of 0/1"},
