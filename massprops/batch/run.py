@@ -81,6 +81,7 @@ class Outcome:
     message: str
     line: str
     kind: str = "ok"
+    unit: str | None = None          # the length unit the file was computed in (declared or given)
 
     @property
     def retry(self):
@@ -99,6 +100,7 @@ class BatchSummary:
     failures: tuple = ()
     notes: tuple = ()
     text: str | None = None
+    units: tuple = ()               # the length unit of each file computed ok (None: none declared or given)
 
     @property
     def files_per_s(self):
@@ -145,7 +147,7 @@ def run_one(path, settings=Settings(), output_format="csv"):
                                  density_map=settings.density_map, shell=settings.shell,
                                  max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection)
         obj = report.result_dict(result)
-        return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
+        return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc, settings.option_style)
         return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), "error")
@@ -322,7 +324,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     header = {"massprops_batch": _STATE_VERSION, "format": output_format, "settings": settings.key()}
     kept, todo, notes = plan(files, output, output_format, header, resume)
     writer = ReportWriter(output, output_format, header, kept)
-    status = {}
+    status, units = {}, []
     if on_start is not None:
         on_start(len(todo))
     stats = {path: file_stat(path) for path in todo}      # before the work reads them: a later change shows
@@ -332,6 +334,8 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
             for outcome in outcomes:
                 writer.add(outcome, stats[outcome.file], retry=outcome.retry)
                 status[outcome.file] = (outcome.status, outcome.message)
+                if outcome.status == "ok":
+                    units.append(outcome.unit)
                 if on_outcome is not None:
                     on_outcome(outcome)
     finally:
@@ -341,4 +345,5 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     failures = tuple(sorted((f, m) for f, (s, m) in status.items() if s != "ok"))
     failed = len(failures) + sum(is_error(line, output_format) for line, _ in kept.values())
     return BatchSummary(ok=len(files) - failed, failed=failed, computed=len(todo), unchanged=len(kept),
-                        elapsed_s=time.perf_counter() - start, failures=failures, notes=tuple(notes), text=text)
+                        elapsed_s=time.perf_counter() - start, failures=failures, notes=tuple(notes), text=text,
+                        units=tuple(units))

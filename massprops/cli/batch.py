@@ -118,6 +118,8 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
                    timeout or None)
     if summary.text is not None:
         options.echo(summary.text, nl=False)
+    if summary.units:
+        options.warn_units(density, unit, summary.units, mixed=True)
     if not quiet:
         if duplicates:
             name, kept = duplicates[0]

@@ -228,6 +228,23 @@ def echo_error(message):
     click.echo(f"error: {message}", err=True)
 
 
+def warn(message):
+    """One warning line on stderr, options spelled as options."""
+    from ..errors import render_options
+    click.echo(f"warning: {render_options(message, 'cli')}", err=True)
+
+
+def warn_units(density, unit, declared, *, mixed=False):
+    """Warn (once per run) of a density that looks like a unit mistake, and of a report mixing units."""
+    from ..density_units import density_warnings, mixed_units_warning
+    messages = density_warnings(density, unit, declared)
+    if mixed:
+        messages.append(mixed_units_warning(unit, declared))
+    for message in messages:
+        if message:
+            warn(message)
+
+
 def render(exc, path=None):
     """The one line of a MassPropsError, options spelled as command-line options."""
     return (exc if exc.path or path is None else exc.with_path(path)).render("cli")

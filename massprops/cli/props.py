@@ -36,12 +36,13 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
 
     wanted = None if only is None else set(only) | ({"inertia"} if omega is not None else set())
     pose = options.pose_from_options(rotate, translate)
-    objects, failed = [], 0
+    objects, failed, declared = [], 0, []
 
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                  only=wanted, density_field=density_field, density_map=density_map, shell=shell,
                                  max_unpacked=max_unpacked, self_intersection=self_intersection)
+        declared.append(result.properties.unit)
         extra = None
         if check_trimesh:
             from ..validation.crosscheck import trimesh_comparison
@@ -61,4 +62,6 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
         options.echo(report.to_json(objects))
     elif output_format == "csv":
         options.echo(report.to_csv([report.csv_row(o) for o in objects]), nl=False)
+    if declared:
+        options.warn_units(density, unit, declared)
     options.exit_with(failed)
