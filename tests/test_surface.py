@@ -84,3 +84,33 @@ def test_a_batch_with_one_unit_is_not_warned_of(tmp_path, runner):
     out = runner.invoke(main, ["batch", str(tmp_path), "-j", "1", "-q", "--unit", "mm", "--density", "7850"])
     assert out.exit_code == 0, out.output
     assert _warnings(out.stderr) == []
+
+
+# ---------------------------------------------------------------- option conflicts
+
+MISSING = "no_such_dir/missing_part.stl"
+
+
+@pytest.mark.parametrize("args, named", [
+    (["props", MISSING, "--mass", "1", "--density", "7850"], ("--density", "--mass")),
+    (["props", MISSING, "--shell", "1", "--density-field", "rho"], ("--shell", "--density-field")),
+    (["props", MISSING, "--shell", "1", "--density-map", "a=1"], ("--shell", "--density-map")),
+    (["props", MISSING, "--density-field", "rho", "--density-map", "a=1"], ("--density-field", "--density-map")),
+    (["props", MISSING, "--density", "2", "--density-field", "rho"], ("--density", "--density-field")),
+    (["batch", MISSING, "--mass", "1", "--density", "2"], ("--density", "--mass")),
+    (["batch", MISSING, "--timeout", "5", "--scheduler", "local"], ("--timeout", "--scheduler")),
+    (["view", MISSING, "-o", "x.html", "--mass", "1", "--density", "2"], ("--density", "--mass")),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--rtol", "1e-6", "--steps", "10"],
+     ("--rtol", "--steps")),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--compare-methods", "--out", "x.csv"],
+     ("--compare-methods", "--out")),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--mass", "1", "--density", "2"],
+     ("--density", "--mass")),
+    (["robot", "write", "missing_robot.urdf", "--all", "--links", "arm*", "-o", "x.urdf"], ("--links", "--all")),
+    (["robot", "write", "missing_robot.urdf", "-o", "x.urdf", "--in-place"], ("--output", "--in-place")),
+])
+def test_an_option_conflict_is_a_usage_error_before_any_file_is_read(runner, args, named):
+    out = runner.invoke(main, args)
+    assert out.exit_code == 2, out.output
+    assert all(name in out.stderr for name in named) and "not both" in out.stderr
+    assert "missing" not in out.stderr.replace("--", "")

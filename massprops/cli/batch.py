@@ -97,6 +97,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
     (the report is still complete).
     """
+    options.refuse_conflicts()
     from ..batch import run as batch_lib
     from ..errors import MassPropsError
 

@@ -200,6 +200,44 @@ def only_option(help_text):
     return click.option("--only", "only", metavar="LIST", callback=_only, help=help_text)
 
 
+# Options that cannot be given together, by parameter name, with why (checked before any file is read).
+CONFLICTS = (
+    ("density", "total_mass", "the density is derived from the mass"),
+    ("shell", "density_field", "--density-field is for volume meshes, --shell for surfaces"),
+    ("shell", "density_map", "--density-map is for volume meshes, --shell for surfaces"),
+    ("density_field", "density_map", "each gives every cell's density"),
+    ("density", "density_field", "the field gives every cell's density"),
+    ("rtol", "steps", "a fixed step count or a tolerance"),
+    ("compare_methods", "torque", "--compare-methods measures errors against the torque-free closed form: drop --torque"),
+    ("compare_methods", "out_csv", "--compare-methods prints a table, not one time series"),
+    ("links_glob", "all_links", "--all writes every link"),
+    ("output", "in_place", "--in-place writes MODEL itself"),
+    ("expand", "in_place", "--expand writes a new URDF"),
+    ("timeout", "scheduler", "a Dask run is bounded by its cluster's own settings"),
+)
+
+
+def _given(ctx, name):
+    from click.core import ParameterSource
+    value = ctx.params.get(name)
+    return (ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+            and value not in (None, False, ()))
+
+
+def _spelling(ctx, name):
+    param = next(p for p in ctx.command.params if p.name == name)
+    return max(param.opts, key=len)
+
+
+def refuse_conflicts(ctx=None):
+    """A usage error (exit 2) for the first pair of :data:`CONFLICTS` both given, before any file is read."""
+    ctx = ctx or click.get_current_context()
+    for first, second, why in CONFLICTS:
+        if first in ctx.params and second in ctx.params and _given(ctx, first) and _given(ctx, second):
+            a, b = _spelling(ctx, first), _spelling(ctx, second)
+            raise click.UsageError(f"give {a} or {b}, not both" + (f" ({why})" if why else ""), ctx)
+
+
 def pose_from_options(rotation, translate):
     """The Pose that ``--rotate`` (a checked rotation matrix or None) and ``--translate`` describe."""
     import numpy as np

@@ -31,6 +31,7 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     digits the bound leaves significant (--digits N for more); JSON and CSV keep
     full precision.  Exit 1 if any file failed; the others are still reported.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..compute import mass_properties
 

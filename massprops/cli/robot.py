@@ -235,11 +235,10 @@ def write(model, output, in_place, links_glob, all_links, frame, expand, **kwarg
     strict checks (A + B >= C with no tolerance, positive definite); a thin
     plate's moments may be nudged by a few ulps for that, and it is said.
     """
+    options.refuse_conflicts()
     from ..robot.write import write_inertials
-    if bool(output) == bool(in_place):
+    if not output and not in_place:
         raise click.UsageError("give -o OUT or --in-place (one of them)")
-    if expand and in_place:
-        raise click.UsageError("--expand writes a new URDF: give -o OUT, not --in-place")
     settings = _settings("check", **kwargs)
     result = options.guarded(write_inertials, model, settings, links_glob=links_glob or None, all_links=all_links,
                              frame=frame, expand=expand, path=model)

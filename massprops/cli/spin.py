@@ -44,18 +44,14 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     momentum drift and, torque-free, the error against the closed-form
     (Jacobi elliptic) solution.  Exit 1 on a bad file or option.
     """
+    options.refuse_conflicts()
     from .. import dynamics
     from ..compute import mass_properties
     from ..dynamics.closed_form import torque_free
 
-    if rtol is not None and steps is not None:
-        raise click.UsageError("give --rtol or --steps, not both")
     if steps is not None and method not in SPLITTING:
         raise click.BadParameter(f"--steps applies to split2/split4/split6, not {method}; give --rtol",
                                  param_hint="--steps")
-    if compare_methods and torque is not None:
-        raise click.UsageError("--compare-methods measures errors against the torque-free closed form; "
-                               "drop --torque")
     pose = options.pose_from_options(rotate, translate)
     result = options.guarded(mass_properties, file, density=density, mass=total_mass, unit=unit, pose=pose,
                              repair=repair, path=file)

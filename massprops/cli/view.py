@@ -45,6 +45,7 @@ def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate,
     .png (matplotlib, the `plot` extra) shows front, top and side views.
     Options change the result as they do for `props`.  Exit 1 if a file failed.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..compute import mass_properties
     from ..io import read
