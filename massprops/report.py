@@ -74,7 +74,7 @@ def _result_dict(result, omega, about, only, extra):
         out["volume"] = p.volume
     if want("mass"):
         out["mass"] = p.mass
-        out["density"] = p.density
+    out["density"] = p.density              # the density in use, whatever was asked
     if want("surface_area"):
         out["surface_area"] = p.surface_area
     if p.unit:
@@ -237,13 +237,38 @@ def about_bound(obj, bounds, point, *, rotations=1):
     return shifted * 3 ** (rotations - 1) * (1 + 16 * u) ** rotations
 
 
+def _count(n, one, many):
+    return f"{n} {one if n == 1 else many}"
+
+
+def header(obj):
+    """What a result was computed from, and with what density: ``12 triangles, 1 shell, density 1``."""
+    checks = obj.get("checks", {})
+    if "cells" in checks:
+        types = ", ".join(f"{n} {kind}" for kind, n in checks.get("cell_types", {}).items())
+        what = _count(checks["cells"], "cell", "cells") + (f" ({types})" if types else "")
+    else:
+        shells = checks.get("shells")
+        what = _count(obj["triangles"], "triangle", "triangles") + (
+            f", {_count(shells, 'shell', 'shells')}" if isinstance(shells, int) else "")
+        if checks.get("shell_thickness") is not None:
+            what += f", a sheet {checks['shell_thickness']:g} thick"
+    if checks.get("density") == "per cell":
+        density = "density per cell"
+    elif obj.get("density") is not None:
+        density = f"density {obj['density']:.6g}" + (" kg/m³" if obj.get("unit") else "")
+    else:
+        density = None
+    return ", ".join(filter(None, (what, density)))
+
+
 def to_text(obj, *, digits=None):
     """A readable block for one result object (as made by :func:`result_dict`).
 
     Every value shows the digits its error bound leaves significant (see
     :func:`significant`), or ``digits`` significant digits when given.
     """
-    lines = [f"{obj['file']}  ({obj['triangles']} triangles, {obj['checks'].get('shells', '?')} shell(s))"]
+    lines = [f"{obj['file']}  ({header(obj)})"]
     err, bounds = obj["error"], display_bounds(obj)
 
     def row(label, value, bound=None, shown=None):
@@ -261,7 +286,7 @@ def to_text(obj, *, digits=None):
 
     posed = obj["pose"]["rotation"] != np.eye(3).tolist() or any(obj["pose"]["translation"])
     skip = set() if posed else {"center_of_mass_global", "inertia_com_global"}
-    for key, label, own in (("volume", "volume", True), ("mass", "mass", True), ("density", "density", False),
+    for key, label, own in (("volume", "volume", True), ("mass", "mass", True),
                             ("surface_area", "surface area", False), ("center_of_mass", "center of mass", True),
                             ("center_of_mass_global", "center of mass global", False)):
         if key in obj and key not in skip:

@@ -61,7 +61,7 @@ def _summary_line(summary):
     return f"{line}; {summary.computed} computed in {summary.elapsed_s:.2f} s, {rate}"
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("paths", nargs=-1, required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
               help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")

@@ -55,17 +55,48 @@ NON_NEGATIVE = Number(positive=True, zero_ok=True)
 
 
 class Point(click.ParamType):
-    """``X,Y,Z``: three finite numbers."""
+    """Three finite numbers, ``X,Y,Z`` or ``X Y Z`` (see :class:`Command`, which joins the second form)."""
 
     name = "X,Y,Z"
 
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
-        parts = str(value).split(",")
+        parts = str(value).replace(",", " ").split()
         if len(parts) != 3:
-            self.fail(f"expected X,Y,Z, got {value!r}", param, ctx)
-        return tuple(FINITE.convert(part.strip(), param, ctx) for part in parts)
+            self.fail(f"expected three numbers, X,Y,Z or X Y Z, got {value!r}", param, ctx)
+        return tuple(FINITE.convert(part, param, ctx) for part in parts)
+
+
+def _number_like(token):
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+class Command(click.Command):
+    """A command whose three-number options (type :class:`Point`) take ``X,Y,Z`` or ``X Y Z`` alike.
+
+    Before click parses, ``--about 1 2 3`` becomes ``--about 1,2,3``: an
+    option of type Point followed by three numbers takes all three.
+    """
+
+    def parse_args(self, ctx, args):
+        vectors = {opt for p in self.params if isinstance(p.type, Point) for opt in p.opts}
+        joined, i = [], 0
+        while i < len(args):
+            token = args[i]
+            joined.append(token)
+            i += 1
+            if token == "--":
+                joined.extend(args[i:])
+                break
+            if token in vectors and i + 3 <= len(args) and all(_number_like(t) for t in args[i:i + 3]):
+                joined.append(",".join(args[i:i + 3]))
+                i += 3
+        return super().parse_args(ctx, joined)
 
 
 class Rotation(click.ParamType):
@@ -113,8 +144,8 @@ def material_options(f):
 
 def pose_options(f):
     """--rotate / --translate, giving the part's pose (x = A x' + t)."""
-    f = click.option("--translate", type=FINITE, nargs=3, default=None, metavar="X Y Z",
-                     help="Translation t of the pose, in mesh units.")(f)
+    f = click.option("--translate", type=Point(), default=None, metavar="X,Y,Z",
+                     help="Translation t of the pose, in mesh units (X,Y,Z or X Y Z).")(f)
     f = click.option("--rotate", type=Rotation(), metavar="ROTATION",
                      help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
                           "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
@@ -124,7 +155,7 @@ def pose_options(f):
 def about_option(f):
     """--about X,Y,Z (repeatable): also the inertia about these global points."""
     return click.option("--about", "about", multiple=True, type=Point(), metavar="X,Y,Z",
-                        help="Also report the inertia about this global point (repeatable).")(f)
+                        help="Also report the inertia about this global point (repeatable; X,Y,Z or X Y Z).")(f)
 
 
 def _density_map(ctx, param, text):

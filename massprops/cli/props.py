@@ -7,13 +7,14 @@ import click
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=True))
 @options.material_options
 @options.pose_options
 @options.about_option
-@click.option("--omega", type=options.FINITE, nargs=3, default=None, metavar="WX WY WZ",
-              help="Angular velocity in local axes [rad/s]: adds angular momentum and kinetic energy.")
+@click.option("--omega", type=options.Point(), default=None, metavar="WX,WY,WZ",
+              help="Angular velocity in local axes [rad/s] (WX,WY,WZ or WX WY WZ): adds angular momentum and "
+                   "kinetic energy.")
 @options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal.")
 @click.option("--check-trimesh", is_flag=True, help="Also compute with trimesh and report the relative differences.")
 @options.cell_options

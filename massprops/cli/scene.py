@@ -9,7 +9,7 @@ import click
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
 @click.option("--density", type=options.POSITIVE,
               help="Density for parts that give none (default 1; kg/m³ with a unit).")

@@ -9,14 +9,14 @@ from ..dynamics.output import plot_trajectory, plot_work_precision, summary, wor
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--omega", type=options.FINITE, nargs=3, required=True, metavar="WX WY WZ",
-              help="Initial angular velocity ω' in local (body) axes [rad/s].")
+@click.option("--omega", type=options.Point(), required=True, metavar="WX,WY,WZ",
+              help="Initial angular velocity ω' in local (body) axes [rad/s] (WX,WY,WZ or WX WY WZ).")
 @click.option("--duration", type=options.POSITIVE, required=True, metavar="T",
               help="Simulated time [s].")
-@click.option("--torque", type=options.FINITE, nargs=3, default=None, metavar="TX TY TZ",
-              help="Constant torque [mass·length²/s²]; torque-free without it.")
+@click.option("--torque", type=options.Point(), default=None, metavar="TX,TY,TZ",
+              help="Constant torque [mass·length²/s²] (TX,TY,TZ or TX TY TZ); torque-free without it.")
 @click.option("--torque-frame", type=click.Choice(["body", "world"]), default="body", show_default=True,
               help="Axes the torque is fixed in.")
 @click.option("--method", type=click.Choice(list(METHODS)), default=DEFAULT_METHOD, show_default=True,

@@ -17,7 +17,7 @@ def _output(ctx, param, value):
     return value
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), callback=_output,
               metavar="OUT.html|OUT.png", help="Write a self-contained web page (.html) or an image (.png).")
