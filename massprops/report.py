@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import printable
 
-__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_text", "significant", "vector_text",
+__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_jsonl", "to_text", "significant", "vector_text",
            "display_bounds", "about_bound", "csv_row", "CSV_COLUMNS", "to_csv", "junit"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
@@ -158,6 +158,11 @@ def to_json(value):
         finite_or_null(v) if isinstance(v, dict) else v for v in value]
     text = json.dumps(value, indent=2, allow_nan=False)
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
+
+
+def to_jsonl(objects):
+    """JSON Lines: each result object on one line, as :func:`to_json` writes it (non-finite values as null)."""
+    return "".join(json.dumps(finite_or_null(plain(obj)), allow_nan=False) + "\n" for obj in objects)
 
 
 def significant(x, bound=None, digits=None):

@@ -22,7 +22,7 @@ from . import options
 @options.self_intersection_option
 @options.unpack_option
 @options.digits_option
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "jsonl", "csv")
 def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
           density_map, shell, repair, self_intersection, max_unpacked, digits, output_format):
     """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB; volume meshes via meshio).
@@ -62,6 +62,8 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
             options.echo("")
     if output_format == "json":
         options.echo(report.to_json(objects))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(objects), nl=False)
     elif output_format == "csv":
         options.echo(report.to_csv([report.csv_row(o) for o in objects]), nl=False)
     if declared:

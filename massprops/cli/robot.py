@@ -87,6 +87,8 @@ def _emit(objects, output_format, text):
     from ..robot import report as robot_report
     if output_format == "json":
         click.echo(report.to_json(objects))
+    elif output_format == "jsonl":
+        click.echo(report.to_jsonl(objects), nl=False)
     elif output_format == "csv":
         click.echo(robot_report.csv_text(objects), nl=False)
     else:
@@ -144,7 +146,7 @@ def robot():
 @robot.command("props")
 @click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @model_options
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "jsonl", "csv")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
 @html_option
 def props(models, output_format, jobs, html_path, **kwargs):
@@ -175,7 +177,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
 @click.option("--diagnosis-rtol", type=float, default=0.02, show_default=True,
               help="How close a diagnosis's transformed tensor must come to the declared one.")
 @click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
-@options.format_option("text", "json", "csv", "junit")
+@options.format_option("text", "json", "jsonl", "csv", "junit")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
 @html_option
 def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,

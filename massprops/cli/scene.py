@@ -20,7 +20,7 @@ from . import options
 @options.repair_option
 @options.unpack_option
 @options.digits_option
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "jsonl", "csv")
 @click.option("--html", "html_path", type=click.Path(dir_okay=False), metavar="SCENE.html",
               help="Also write a self-contained web page: the assembly, each part's centre of mass, the total's "
                    "principal axes and equivalent box (needs plotly, the view extra).")
@@ -50,6 +50,8 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     obj = scene_dict(result)
     if output_format == "json":
         options.echo(report.to_json(obj))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(dict(o, file=f"{obj['scene']}#{o['name']}") for o in scene_blocks(obj)), nl=False)
     elif output_format == "csv":
         rows = [report.csv_row(dict(o, file=f"{obj['scene']}#{o['name']}")) for o in scene_blocks(obj)]
         options.echo(report.to_csv(rows), nl=False)
