@@ -114,3 +114,138 @@ def test_an_option_conflict_is_a_usage_error_before_any_file_is_read(runner, arg
     assert out.exit_code == 2, out.output
     assert all(name in out.stderr for name in named) and "not both" in out.stderr
     assert "missing" not in out.stderr.replace("--", "")
+
+
+# ---------------------------------------------------------------- one option language
+
+def _json_out(runner, args):
+    out = runner.invoke(main, args)
+    assert out.exit_code == 0, out.output
+    return out.stdout
+
+
+def _without_times(objs):
+    return [{k: v for k, v in o.items() if k != "elapsed_s"} for o in objs]
+
+
+def test_points_and_vectors_take_commas_or_spaces_alike_in_props(tmp_path, runner):
+    path = _cube_stl(tmp_path / "a.stl", 2.0)
+    spaced = json.loads(_json_out(runner, ["props", path, "--translate", "1", "-2", "3", "--about", "0", "0", "4",
+                                           "--omega", "0", "0", "1", "--format", "json"]))
+    commas = json.loads(_json_out(runner, ["props", path, "--translate", "1,-2,3", "--about", "0,0,4",
+                                           "--omega=0,0,1", "--format", "json"]))
+    assert _without_times(spaced) == _without_times(commas)
+    obj = commas[0]
+    assert obj["pose"]["translation"] == [1.0, -2.0, 3.0]
+    assert obj["inertia_about"][0]["point"] == [0.0, 0.0, 4.0]
+    # a 2-cube of density 1: Izz about its centre is m (a² + b²) / 12 = 8 · 8 / 12; ω = (0, 0, 1)
+    assert obj["angular_momentum"]["local"] == pytest.approx([0.0, 0.0, 64 / 12], abs=1e-12)
+
+
+def test_a_point_with_two_numbers_is_a_usage_error(tmp_path, runner):
+    out = runner.invoke(main, ["props", MISSING, "--about", "1,2"])
+    assert out.exit_code == 2 and "X,Y,Z or X Y Z" in out.stderr
+
+
+def test_batch_translate_takes_spaces_too(tmp_path, runner):
+    path = _cube_stl(tmp_path / "a.stl")
+    rows = [_json_out(runner, ["batch", path, "-q", "-j", "1", "--format", "jsonl", "--translate", *form])
+            for form in (["5", "6", "7"], ["5,6,7"])]
+    objs = [json.loads(r) for r in rows]
+    assert objs[0]["pose"]["translation"] == objs[1]["pose"]["translation"] == [5.0, 6.0, 7.0]
+
+
+def test_spin_vectors_take_spaces_or_commas(tmp_path, runner):
+    path = _cube_stl(tmp_path / "a.stl")
+    base = ["spin", path, "--duration", "0.5", "--samples", "3", "--steps", "10"]
+    _json_out(runner, base + ["--omega", "1", "2", "3", "--torque", "0", "0", "1", "--out", str(tmp_path / "s.csv")])
+    _json_out(runner, base + ["--omega", "1,2,3", "--torque", "0,0,1", "--out", str(tmp_path / "c.csv")])
+    spaced, commas = ((tmp_path / name).read_text() for name in ("s.csv", "c.csv"))
+    assert spaced == commas
+    header, first = spaced.splitlines()[:2]
+    start = dict(zip(header.split(","), map(float, first.split(","))))
+    assert [start["wx"], start["wy"], start["wz"]] == [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize("fmt", ["text", "json", "jsonl", "csv"])
+def test_props_writes_every_format(tmp_path, runner, fmt):
+    files = [_cube_stl(tmp_path / "a.stl"), _cube_stl(tmp_path / "b.stl", 2.0)]
+    text = _json_out(runner, ["props", *files, "--format", fmt, "--only", "volume"])
+    if fmt == "json":
+        assert [o["volume"] for o in json.loads(text)] == [1.0, 8.0]
+    elif fmt == "jsonl":
+        assert [json.loads(line)["volume"] for line in text.splitlines()] == [1.0, 8.0]
+    elif fmt == "csv":
+        assert [line.split(",")[4] for line in text.splitlines()[1:]] == ["1.0", "8.0"]
+    else:
+        assert "volume                 1 " in text and "density 1)" in text
+
+
+def test_batch_only_leaves_the_other_columns_empty(tmp_path, runner):
+    _cube_stl(tmp_path / "a.stl", 2.0)
+    text = _json_out(runner, ["batch", str(tmp_path), "-q", "-j", "1", "--only", "volume,center_of_mass"])
+    header, row = text.splitlines()
+    cells = dict(zip(header.split(","), row.split(",")))
+    assert cells["volume"] == "8.0" and cells["cx"] == "0.0"
+    assert cells["mass"] == cells["Ixx"] == cells["I1"] == ""
+    jsonl = json.loads(_json_out(runner, ["batch", str(tmp_path), "-q", "-j", "1", "--format", "jsonl",
+                                          "--only", "mass"]))
+    assert jsonl["mass"] == 8.0 and "inertia_com" not in jsonl and "center_of_mass" not in jsonl
+
+
+def test_batch_only_refuses_an_unknown_quantity(runner):
+    out = runner.invoke(main, ["batch", MISSING, "--only", "colour"])
+    assert out.exit_code == 2 and "colour" in out.stderr
+
+
+SCENE = """
+[parts.a]
+mesh = "a.stl"
+position = [1, 0, 0]
+
+[parts.b]
+mesh = "b.stl"
+position = [-1, 0, 0]
+"""
+
+
+@pytest.mark.parametrize("fmt", ["json", "jsonl", "csv", "text"])
+def test_scene_writes_every_format_and_only(tmp_path, runner, fmt):
+    _cube_stl(tmp_path / "a.stl")
+    _cube_stl(tmp_path / "b.stl")
+    (tmp_path / "s.toml").write_text(SCENE)
+    text = _json_out(runner, ["scene", str(tmp_path / "s.toml"), "--format", fmt, "--only", "mass"])
+    if fmt == "jsonl":
+        blocks = [json.loads(line) for line in text.splitlines()]
+        assert [b["name"] for b in blocks] == ["a", "b", "total"]
+        assert [b["mass"] for b in blocks] == [1.0, 1.0, 2.0]
+        assert all("inertia_com" not in b for b in blocks)
+    elif fmt == "json":
+        assert json.loads(text)["total"]["mass"] == 2.0
+    elif fmt == "csv":
+        assert [line.split(",")[5] for line in text.splitlines()[1:]] == ["1.0", "1.0", "2.0"]
+    else:
+        assert text.count("density 1)") == 3                 # both parts and the total
+
+
+ROBOT = "sample_meshes/robot/massprops_robot/urdf/robot.urdf"
+
+
+@pytest.mark.parametrize("command", ["props", "check"])
+def test_robot_writes_jsonl_one_model_a_line(runner, command):
+    import os
+    root = os.path.join(os.path.dirname(__file__), "..")
+    model = os.path.join(root, ROBOT)
+    out = runner.invoke(main, ["robot", command, model, "--format", "jsonl", "--declared-only"]
+                        if command == "check" else ["robot", "props", model, "--format", "jsonl"])
+    assert out.exit_code in (0, 1), out.output           # the sample robot has an invalid link on purpose
+    (line,) = out.stdout.splitlines()
+    obj = json.loads(line)
+    assert obj["model"] == model and obj["links"]
+    if command == "props":
+        assert obj["default_density"] == 1000.0
+
+
+def test_help_states_the_density_defaults(runner):
+    assert "Default 1, so mass = volume" in " ".join(runner.invoke(main, ["props", "--help"]).output.split())
+    assert "Default 1000" in " ".join(runner.invoke(main, ["robot", "props", "--help"]).output.split())

@@ -56,6 +56,7 @@ class Settings:
     shell: float | None = None
     max_unpacked: int | None = None
     self_intersection: bool | None = None
+    only: frozenset | None = None         # the quantities to compute (None: all); see massprops.compute.QUANTITIES
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
 
     def key(self):
@@ -64,6 +65,7 @@ class Settings:
         return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
                 "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
                 "max_unpacked": self.max_unpacked, "self_intersection": self.self_intersection,
+                **({"only": sorted(self.only)} if self.only is not None else {}),
                 "rotation": [repr(float(x)) for x in pose.rotation.ravel()],
                 "translation": [repr(float(x)) for x in pose.translation]}
 
@@ -145,8 +147,9 @@ def run_one(path, settings=Settings(), output_format="csv"):
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
                                  density_map=settings.density_map, shell=settings.shell,
-                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection)
-        obj = report.result_dict(result)
+                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection,
+                                 only=settings.only)
+        obj = report.result_dict(result, only=settings.only)
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc, settings.option_style)

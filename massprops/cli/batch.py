@@ -66,7 +66,7 @@ def _summary_line(summary):
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
               help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")
 @options.format_option("csv", "jsonl")
-@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
 @click.option("--resume", is_flag=True,
               help="Keep the report's rows for files whose size and mtime are unchanged; compute the rest.")
@@ -77,13 +77,15 @@ def _summary_line(summary):
 @click.option("--timeout", type=options.NON_NEGATIVE, default=300.0, show_default=True, metavar="SECONDS",
               help="Time one file may take in a local worker before it is stopped and reported (0: no limit; "
                    "--resume computes timed-out files again).")
+@options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal "
+                     "(the other columns are left empty).")
 @options.material_options
 @options.pose_options
 @options.cell_options
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
-def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, density, total_mass,
+def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, only, density, total_mass,
           unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
@@ -113,7 +115,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     pose = options.pose_from_options(rotate, translate)
     settings = batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                   density_field=density_field, density_map=density_map, shell=shell,
-                                  max_unpacked=max_unpacked, self_intersection=self_intersection,
+                                  max_unpacked=max_unpacked, self_intersection=self_intersection, only=only,
                                   option_style="cli")
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet,
                    timeout or None)

@@ -136,9 +136,12 @@ class Bytes(click.ParamType):
 def material_options(f):
     """--density / --mass / --unit."""
     f = click.option("--unit", type=click.Choice(UNIT_CHOICES),
-                     help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.")(f)
+                     help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.  Default: "
+                          "the unit the file declares (3MF, DAE), else none (mesh units).")(f)
     f = click.option("--mass", "total_mass", type=POSITIVE, help="Total mass (density derived).")(f)
-    f = click.option("--density", type=POSITIVE, help="Density [mass/length³]; default 1, so mass = volume.")(f)
+    f = click.option("--density", type=POSITIVE,
+                     help="Density [mass/length³; kg/m³ with a unit].  Default 1, so mass = volume (robot "
+                          "commands default to 1000 kg/m³).")(f)
     return f
 
 

@@ -13,7 +13,7 @@ from . import options
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--omega", type=options.Point(), required=True, metavar="WX,WY,WZ",
               help="Initial angular velocity ω' in local (body) axes [rad/s] (WX,WY,WZ or WX WY WZ).")
-@click.option("--duration", type=options.POSITIVE, required=True, metavar="T",
+@click.option("--duration", type=options.POSITIVE, required=True, metavar="SECONDS",
               help="Simulated time [s].")
 @click.option("--torque", type=options.Point(), default=None, metavar="TX,TY,TZ",
               help="Constant torque [mass·length²/s²] (TX,TY,TZ or TX TY TZ); torque-free without it.")
@@ -23,12 +23,13 @@ from . import options
               help="split2/4/6: geometric splitting (exact rotations, |H| kept to rounding); others: scipy.")
 @click.option("--rtol", type=options.POSITIVE, default=None,
               help="Target relative error (default 1e-9).")
-@click.option("--steps", type=click.IntRange(min=1), default=None,
+@click.option("--steps", type=click.IntRange(min=1), default=None, metavar="N",
               help="Fixed step count (splitting methods; instead of --rtol).")
-@click.option("--samples", type=click.IntRange(min=2), default=1001, show_default=True,
+@click.option("--samples", type=click.IntRange(min=2), default=1001, show_default=True, metavar="N",
               help="Rows of the time series.")
-@click.option("--out", "out_csv", type=click.Path(dir_okay=False), help="Write the time series as CSV.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--out", "out_csv", type=click.Path(dir_okay=False), metavar="FILE.csv",
+              help="Write the time series as CSV.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), metavar="FILE.png",
               help="Write a PNG (the time series, or the work–precision plot with --compare-methods).")
 @click.option("--compare-methods", is_flag=True,
               help="Run every method at several tolerances against the closed form: table and log-log plot.")
