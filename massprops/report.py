@@ -305,7 +305,7 @@ def to_text(obj, *, digits=None):
         for k, axis in enumerate(obj["principal_axes"]):
             row(f"  axis {k + 1}", axis, bounds["principal_axes"])
         if obj["degenerate"]:
-            lines.append(f"  {'degenerate':<22} {obj['degenerate']} (axes chosen by the SPEC's rule)")
+            lines.append(f"  {'degenerate':<22} {obj['degenerate']} (axes chosen by the rule in docs/conventions.md)")
     for k, extra in enumerate(obj.get("inertia_about", [])):
         matrix("about " + vector_text(extra["point"]), extra["inertia"], bounds.get(f"inertia_about.{k}"))
     if "angular_momentum" in obj:

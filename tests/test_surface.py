@@ -249,3 +249,22 @@ def test_robot_writes_jsonl_one_model_a_line(runner, command):
 def test_help_states_the_density_defaults(runner):
     assert "Default 1, so mass = volume" in " ".join(runner.invoke(main, ["props", "--help"]).output.split())
     assert "Default 1000" in " ".join(runner.invoke(main, ["robot", "props", "--help"]).output.split())
+
+
+# ---------------------------------------------------------------- no SPEC in user output
+
+@pytest.mark.parametrize("command", [["props"], ["scene"], ["batch"], ["spin"], ["view"], ["compare"], ["check"],
+                                     ["solids"], ["regress"], ["accuracy"], ["robot"], ["robot", "props"],
+                                     ["robot", "check"], ["robot", "write"], []])
+def test_help_cites_no_document_users_do_not_have(runner, command):
+    out = runner.invoke(main, [*command, "--help"])
+    assert out.exit_code == 0 and "Usage" in out.output
+    assert "SPEC" not in out.output
+
+
+def test_degenerate_axes_point_to_the_conventions_page(tmp_path, runner):
+    import os
+    text = _json_out(runner, ["props", _cube_stl(tmp_path / "a.stl")])
+    assert "SPEC" not in text and "docs/conventions.md" in text
+    root = os.path.join(os.path.dirname(__file__), "..")
+    assert os.path.exists(os.path.join(root, "docs", "conventions.md"))

@@ -92,8 +92,9 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
     a glob such as 'parts/**/*.stl', or @LIST, a text file of paths one a line.
     One file under several names (./a.stl, dir/../a.stl, a link to it) is one
-    row, under the first name.  CSV columns are the SPEC's (inertia about the
-    center of mass, local axes; Ixy, Ixz, Iyz are the tensor's own elements);
+    row, under the first name.  CSV columns are those of docs/conventions.md
+    (inertia about the center of mass, local axes; Ixy, Ixz, Iyz are the tensor's
+    own elements); --only leaves the columns of other quantities empty;
     --format jsonl writes the full `props` objects.  A file that fails gets
     status=error and its message, and the run goes on; a worker that dies costs
     only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
