@@ -268,3 +268,27 @@ def test_degenerate_axes_point_to_the_conventions_page(tmp_path, runner):
     assert "SPEC" not in text and "docs/conventions.md" in text
     root = os.path.join(os.path.dirname(__file__), "..")
     assert os.path.exists(os.path.join(root, "docs", "conventions.md"))
+
+
+# ---------------------------------------------------------------- small things
+
+def test_a_complete_batch_leaves_no_state_file_and_an_interrupted_one_does(tmp_path, runner):
+    from massprops.batch import run as batch
+    folder = tmp_path / "parts"
+    folder.mkdir()
+    for k in range(3):
+        _cube_stl(folder / f"p{k}.stl", 1.0 + k)
+    out = tmp_path / "report.csv"
+    result = runner.invoke(main, ["batch", str(folder), "-o", str(out), "-j", "1", "-q"])
+    assert result.exit_code == 0 and out.exists()
+    assert not (tmp_path / "report.csv.state.jsonl").exists()
+
+    def interrupt(outcome):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        batch.run_batch(batch.expand_inputs([str(folder)]), output=str(out), jobs=1, on_outcome=interrupt)
+    assert (tmp_path / "report.csv.state.jsonl").exists()        # what --resume needs
+    result = runner.invoke(main, ["batch", str(folder), "-o", str(out), "-j", "1", "--resume"])
+    assert result.exit_code == 0 and "2 computed" in result.stderr
+    assert (tmp_path / "report.csv.state.jsonl").exists()        # kept by a --resume run, for the next one

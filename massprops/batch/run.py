@@ -279,6 +279,14 @@ def _outcomes(todo, settings, output_format, jobs, scheduler, client, timeout):
         yield from _run_local(todo, settings, output_format, min(jobs, len(todo)), timeout)
 
 
+def _forget_state(output):
+    """Remove the resume state of a complete run: nothing is left to resume (a ``--resume`` run keeps it)."""
+    try:
+        os.remove(state_path(output))
+    except OSError:
+        pass
+
+
 def run_batch(files, settings=Settings(), *, output=None, output_format="csv", jobs=None, scheduler=None,
               client=None, resume=False, timeout=DEFAULT_TIMEOUT, on_start=None, on_outcome=None):
     """Compute a record for every file and write the report, sorted by path.
@@ -305,7 +313,10 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     resume : bool
         Reuse the records of ``output`` whose file has the same size and
         modification time as when it was computed, with the same settings;
-        files whose worker died or that timed out are computed again.
+        files whose worker died or that timed out are computed again.  The
+        state this needs (``REPORT.state.jsonl``) is kept after an interrupted
+        run, a run with files to retry, or a ``resume`` run (for the next
+        one); a complete run without ``resume`` removes it.
     timeout : float or None
         Seconds one file may take in a local worker (default 300); None for
         no limit.  Dask runs are bounded by the cluster's own settings.
@@ -327,7 +338,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     header = {"massprops_batch": _STATE_VERSION, "format": output_format, "settings": settings.key()}
     kept, todo, notes = plan(files, output, output_format, header, resume)
     writer = ReportWriter(output, output_format, header, kept)
-    status, units = {}, []
+    status, units, unfinished = {}, [], False
     if on_start is not None:
         on_start(len(todo))
     stats = {path: file_stat(path) for path in todo}      # before the work reads them: a later change shows
@@ -337,6 +348,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
             for outcome in outcomes:
                 writer.add(outcome, stats[outcome.file], retry=outcome.retry)
                 status[outcome.file] = (outcome.status, outcome.message)
+                unfinished |= outcome.retry
                 if outcome.status == "ok":
                     units.append(outcome.unit)
                 if on_outcome is not None:
@@ -345,6 +357,8 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
         arriving.close()                                  # stops the workers now, whatever ended the loop
         writer.close()
     text = writer.finish()
+    if output is not None and not resume and not unfinished:
+        _forget_state(output)
     failures = tuple(sorted((f, m) for f, (s, m) in status.items() if s != "ok"))
     failed = len(failures) + sum(is_error(line, output_format) for line, _ in kept.values())
     return BatchSummary(ok=len(files) - failed, failed=failed, computed=len(todo), unchanged=len(kept),
