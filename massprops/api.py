@@ -30,8 +30,8 @@ __all__ = ["mass_properties", "Source"]
 Source = Union[str, bytes, os.PathLike, ArrayLike, tuple, Any]
 
 
-def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: float | None = None, mass: float | None = None,
-                    unit: str | None = None, pose: Pose | None = None, repair: bool = False,
+def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: float | None = None,
+                    mass: float | None = None, unit: str | None = None, pose: Pose | None = None, repair: bool = False,
                     only: str | Iterable[str] | None = None, density_field: str | None = None,
                     density_map: Mapping[str, float] | None = None, shell: float | None = None,
                     max_unpacked: int | None = None, self_intersection: bool | None = None) -> Result:

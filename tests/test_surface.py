@@ -292,3 +292,54 @@ def test_a_complete_batch_leaves_no_state_file_and_an_interrupted_one_does(tmp_p
     result = runner.invoke(main, ["batch", str(folder), "-o", str(out), "-j", "1", "--resume"])
     assert result.exit_code == 0 and "2 computed" in result.stderr
     assert (tmp_path / "report.csv.state.jsonl").exists()        # kept by a --resume run, for the next one
+
+
+def test_a_closed_hole_of_one_face_is_said_in_the_singular():
+    import massprops
+    box = solids.box((1.0, 2.0, 3.0))
+    result = massprops.mass_properties((box.vertices, box.faces[1:]), repair=True)
+    assert result.warnings == ("closed holes with 1 new face",) and result.volume == 6.0
+
+
+def test_a_volume_mesh_is_described_by_its_cells(tmp_path, runner):
+    from untrusted_files import VTK_CELLS, write_vtu
+    path = tmp_path / "two.vtu"
+    write_vtu(path, [(12, VTK_CELLS[12][0]), (10, VTK_CELLS[10][0])])
+    out = runner.invoke(main, ["props", str(path), "--only", "volume"])
+    assert out.exit_code == 0, out.output
+    header = out.stdout.splitlines()[0]
+    assert "2 cells" in header and "hexahedron" in header and "tetra" in header and "triangle" not in header
+    assert out.stdout.splitlines()[1].split()[:2] == ["volume", "1.16666666666667"]
+
+
+_CLASS_NAME = __import__("re").compile(r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning)\b|BadZipFile|NoneType|"
+                                       r"Traceback")
+
+
+def _hostile_files(folder):
+    from badfiles import make_bad_files
+    from untrusted_files import chain_3mf, collada_graph, write_glb
+    files = list(make_bad_files(folder))
+    for name, text in (("garbage.dae", "garbage"), ("no_nodes.dae", '<COLLADA><asset><unit meter="x"/></asset>'
+                                                                    "</COLLADA>"), ("garbage.3mf", "PK garbage"),
+                       ("garbage.glb", "glTF garbage"), ("garbage.ply", "ply\nformat ascii 1.0\nelement vertex x\n"),
+                       ("garbage.vtu", "<VTKFile><UnstructuredGrid>"), ("garbage.msh", "$MeshFormat\n9 9 9\n")):
+        (folder / name).write_text(text)
+        files.append(str(folder / name))
+    collada_graph(folder / "cycle.dae", 2, cycle=True)
+    write_glb(folder / "mat4.glb", kind="MAT4")
+    write_glb(folder / "short.glb", count=40)
+    chain_3mf(folder / "deep.3mf", 300)
+    return files + [str(folder / n) for n in ("cycle.dae", "mat4.glb", "short.glb", "deep.3mf")]
+
+
+def test_no_refusal_of_the_hostile_corpus_names_a_python_class(tmp_path, runner):
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    files = _hostile_files(folder)
+    out = runner.invoke(main, ["props", *files])
+    assert out.exit_code == 1
+    lines = out.stderr.splitlines()
+    assert sum(line.startswith("error: ") for line in lines) >= len(files) - 2      # (a few may be readable)
+    named = [line for line in lines if _CLASS_NAME.search(line)]
+    assert named == []

@@ -384,8 +384,3 @@ def _rescaled(model, link, prepared, mass):
                 base = scaled_to_mass(base.props, mass)
                 out[f"linear:{abs(factors[0])!r}"] = replace(base, inertia_com=base.inertia_com / abs(factors[0]))
     return out
-
-
-def summary_line(obj):
-    """``3 ok, 1 mismatch`` for one analysed model."""
-    return ", ".join(f"{n} {s}" for s, n in obj.get("summary", {}).items())
