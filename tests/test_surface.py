@@ -343,3 +343,16 @@ def test_no_refusal_of_the_hostile_corpus_names_a_python_class(tmp_path, runner)
     assert sum(line.startswith("error: ") for line in lines) >= len(files) - 2      # (a few may be readable)
     named = [line for line in lines if _CLASS_NAME.search(line)]
     assert named == []
+
+
+def test_scene_and_spin_warn_of_a_kg_per_m3_density_without_unit(tmp_path, runner):
+    _cube_stl(tmp_path / "a.stl")
+    (tmp_path / "s.toml").write_text('[parts.a]\nmesh = "a.stl"\n')
+    for args in (["scene", str(tmp_path / "s.toml")],
+                 ["spin", str(tmp_path / "a.stl"), "--omega", "0,0,1", "--duration", "0.1", "--samples", "2"]):
+        warned = runner.invoke(main, [*args, "--density", "7850"])
+        assert warned.exit_code == 0, warned.output
+        assert [w for w in _warnings(warned.stderr) if "--unit mm" in w] != []
+        plain = runner.invoke(main, [*args, "--density", "7850", "--unit", "mm"])
+        assert plain.exit_code == 0 and _warnings(plain.stderr) == []
+        assert "density 7850 kg/m³" in plain.stdout

@@ -48,6 +48,7 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     if result is None:
         options.exit_with(1)
     obj = scene_dict(result)
+    options.warn_units(density, unit, [obj.get("unit")])
     if output_format == "json":
         options.echo(report.to_json(obj))
     elif output_format == "jsonl":

@@ -62,7 +62,8 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     attitude = pose.rotation
     moments = properties.principal.moments
     click.echo(f"{file}: principal moments {moments[0]:.9g} {moments[1]:.9g} {moments[2]:.9g}"
-               f"{' (SI)' if unit else ''}")
+               f"{' (SI)' if unit else ''}; density {properties.density:.6g}{' kg/m³' if properties.unit else ''}")
+    options.warn_units(density, unit, [properties.unit])
     if compare_methods:
         rows = options.guarded(dynamics.work_precision, properties.inertia_com, omega, duration,
                                attitude=attitude, samples=min(samples, 201), path=file)
