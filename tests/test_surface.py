@@ -108,12 +108,46 @@ MISSING = "no_such_dir/missing_part.stl"
      ("--density", "--mass")),
     (["robot", "write", "missing_robot.urdf", "--all", "--links", "arm*", "-o", "x.urdf"], ("--links", "--all")),
     (["robot", "write", "missing_robot.urdf", "-o", "x.urdf", "--in-place"], ("--output", "--in-place")),
+    (["props", MISSING, "--check-trimesh", "--shell", "1"], ("--check-trimesh", "--shell")),
+    (["props", MISSING, "--check-trimesh", "--density-field", "rho"], ("--check-trimesh", "--density-field")),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--compare-methods", "--method", "RK45"],
+     ("--compare-methods", "--method")),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--compare-methods", "--rtol", "1e-6"],
+     ("--compare-methods", "--rtol")),
+    (["robot", "check", "missing_robot.urdf", "--declared-only", "--density", "2700"],
+     ("--declared-only", "--density")),
+    (["robot", "check", "missing_robot.urdf", "--declared-only", "--on-open", "hull"],
+     ("--declared-only", "--on-open")),
 ])
 def test_an_option_conflict_is_a_usage_error_before_any_file_is_read(runner, args, named):
     out = runner.invoke(main, args)
     assert out.exit_code == 2, out.output
     assert all(name in out.stderr for name in named) and "not both" in out.stderr
     assert "missing" not in out.stderr.replace("--", "")
+
+
+@pytest.mark.parametrize("args, said", [
+    (["props", MISSING, "--digits", "5", "--format", "json"], "--digits applies to --format text, not json"),
+    (["scene", "missing_scene.toml", "--digits", "5", "--format", "csv"], "--digits applies to --format text"),
+    (["props", MISSING, "--check-trimesh", "--format", "csv"], "--check-trimesh applies to --format text"),
+    (["spin", MISSING, "--omega", "1", "0", "0", "--duration", "1", "--torque-frame", "world"],
+     "--torque-frame needs --torque"),
+])
+def test_an_option_that_does_not_apply_is_a_usage_error_before_any_file_is_read(runner, args, said):
+    out = runner.invoke(main, args)
+    assert out.exit_code == 2, out.output
+    assert said in out.stderr and "missing" not in out.stderr.replace("--", "")
+
+
+def test_the_options_that_do_apply_together_still_run(tmp_path, runner):
+    path = _cube_stl(tmp_path / "a.stl")
+    assert runner.invoke(main, ["props", path, "--digits", "5", "--format", "text"]).exit_code == 0
+    out = runner.invoke(main, ["spin", path, "--omega", "0,0,1", "--duration", "0.1", "--samples", "2",
+                               "--torque", "0,0,1", "--torque-frame", "world", "--out", str(tmp_path / "t.csv")])
+    assert out.exit_code == 0, out.output
+    # a unit cube (I = 1/6 about every axis) spun up about z: ω_z(t) = 1 + T t / I, exactly 1.6 at t = 0.1
+    header, _, last = (tmp_path / "t.csv").read_text().splitlines()
+    assert float(dict(zip(header.split(","), last.split(",")))["wz"]) == pytest.approx(1.6, rel=1e-12)
 
 
 # ---------------------------------------------------------------- one option language

@@ -249,6 +249,23 @@ CONFLICTS = (
     ("output", "in_place", "--in-place writes MODEL itself"),
     ("expand", "in_place", "--expand writes a new URDF"),
     ("timeout", "scheduler", "a Dask run is bounded by its cluster's own settings"),
+    ("check_trimesh", "shell", "--check-trimesh compares solids bounded by surfaces, not sheets"),
+    ("check_trimesh", "density_field", "--check-trimesh compares surfaces, not volume meshes"),
+    ("check_trimesh", "density_map", "--check-trimesh compares surfaces, not volume meshes"),
+    ("compare_methods", "method", "--compare-methods runs every method"),
+    ("compare_methods", "rtol", "--compare-methods runs every method at several tolerances"),
+    ("compare_methods", "steps", "--compare-methods runs every method at several tolerances"),
+    ("compare_methods", "torque_frame", "--compare-methods is torque-free"),
+    ("declared_only", "density", "--declared-only reads no geometry"),
+    ("declared_only", "mass_policy", "--declared-only reads no geometry"),
+    ("declared_only", "on_open", "--declared-only reads no geometry"),
+    ("declared_only", "repair", "--declared-only reads no geometry"),
+)
+# An option that applies only with another, or with some of its values: (option, other, values or None, why).
+NEEDS = (
+    ("torque_frame", "torque", None, "the frame of the torque"),
+    ("digits", "output_format", ("text",), "JSON and CSV keep full precision"),
+    ("check_trimesh", "output_format", ("text", "json", "jsonl"), "the CSV columns have no room for it"),
 )
 
 
@@ -271,6 +288,14 @@ def refuse_conflicts(ctx=None):
         if first in ctx.params and second in ctx.params and _given(ctx, first) and _given(ctx, second):
             a, b = _spelling(ctx, first), _spelling(ctx, second)
             raise click.UsageError(f"give {a} or {b}, not both" + (f" ({why})" if why else ""), ctx)
+    for name, other, values, why in NEEDS:
+        if name in ctx.params and other in ctx.params and _given(ctx, name):
+            value = ctx.params[other]
+            if values is None and not _given(ctx, other):
+                raise click.UsageError(f"{_spelling(ctx, name)} needs {_spelling(ctx, other)} ({why})", ctx)
+            if values is not None and value not in values:
+                raise click.UsageError(f"{_spelling(ctx, name)} applies to {_spelling(ctx, other)} "
+                                       f"{' or '.join(values)}, not {value} ({why})", ctx)
 
 
 def pose_from_options(rotation, translate):

@@ -157,6 +157,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
     principal moments and axes, error bounds, and each geometry with the file
     it resolved to.  Exit 1 if a model or a link could not be computed.
     """
+    options.refuse_conflicts()
     from ..robot.report import props_text
     _one_model_for_html(models, html_path)
     settings = _settings("props", **kwargs)
@@ -192,6 +193,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     --strict also on mismatch and missing); a mismatch explains, since declared
     inertials are rarely of uniform solids.
     """
+    options.refuse_conflicts()
     from ..robot.check import Tolerances
     from ..robot.report import check_text, junit_xml
     _one_model_for_html(models, html_path)

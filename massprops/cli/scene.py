@@ -32,6 +32,7 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     geometry is a part.  A mesh used by several parts is integrated once.  A
     part that cannot be computed stops the run with exit 1.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..scene import assembly
     from ..scene.report import scene_blocks, scene_dict, scene_text
