@@ -261,7 +261,8 @@ def header(obj):
     if checks.get("density") == "per cell":
         density = "density per cell"
     elif obj.get("density") is not None:
-        density = f"density {obj['density']:.6g}" + (" kg/m³" if obj.get("unit") else "")
+        mean = "mean " if "parts" in checks else ""            # an assembly's total: mass / volume
+        density = f"{mean}density {obj['density']:.6g}" + (" kg/m³" if obj.get("unit") else "")
     else:
         density = None
     return ", ".join(filter(None, (what, density)))

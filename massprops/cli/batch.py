@@ -72,7 +72,8 @@ def _summary_line(summary):
               help="Keep the report's rows for files whose size and mtime are unchanged; compute the rest.")
 @click.option("-r", "--recursive", is_flag=True, help="Descend into sub-directories (and let ** match them).")
 @click.option("--scheduler", metavar="local|tcp://HOST:PORT",
-              help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.")
+              help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.  "
+                   "Default: local worker processes, no Dask.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar, failure list or summary line.")
 @click.option("--timeout", type=options.NON_NEGATIVE, default=300.0, show_default=True, metavar="SECONDS",
               help="Time one file may take in a local worker before it is stopped and reported (0: no limit; "

@@ -148,10 +148,10 @@ def material_options(f):
 def pose_options(f):
     """--rotate / --translate, giving the part's pose (x = A x' + t)."""
     f = click.option("--translate", type=Point(), default=None, metavar="X,Y,Z",
-                     help="Translation t of the pose, in mesh units (X,Y,Z or X Y Z).")(f)
+                     help="Translation t of the pose, in mesh units (X,Y,Z or X Y Z).  Default 0,0,0.")(f)
     f = click.option("--rotate", type=Rotation(), metavar="ROTATION",
                      help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
-                          "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
+                          "XYZ intrinsic) | matrix:9 numbers row-major.  Default: none (the identity).")(f)
     return f
 
 
