@@ -259,7 +259,7 @@ def test_scene_writes_every_format_and_only(tmp_path, runner, fmt):
     elif fmt == "csv":
         assert [line.split(",")[5] for line in text.splitlines()[1:]] == ["1.0", "1.0", "2.0"]
     else:
-        assert text.count(" density 1)") == 2 and text.count("mean density 1)") == 1      # parts, total
+        assert text.count(", density 1)") == 2 and text.count(", mean density 1)") == 1      # parts, total
 
 
 ROBOT = "sample_meshes/robot/massprops_robot/urdf/robot.urdf"
