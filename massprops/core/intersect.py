@@ -147,11 +147,20 @@ class ExactGeometry:
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),
                              int(shells_certified), int(vertices_certified))
 
-    def crossing_pairs(self, faces, *, threads=None):
+    def crossing_pairs(self, faces, shells=None, n_shells=1, *, threads=None):
         """Every pair of faces that meet beyond the vertices and edges they share (by index).
 
         Faces that share vertices meet only if they fold over each other
         beyond what they share; faces of zero area take no part.
+
+        Parameters
+        ----------
+        faces : ndarray, shape (m, 3), int
+        shells : ndarray, shape (m,), int, optional
+            Shell labels (``0 .. n_shells - 1``).  With several shells, a first
+            search per shell (where each shell may be certified embedded as a
+            whole) tells which shells meet anything; only their faces are then
+            searched for every pair.  The pairs are the same as without labels.
 
         Returns
         -------
@@ -161,8 +170,15 @@ class ExactGeometry:
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         if threads is None:
             threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
-        labels = np.zeros(faces.shape[0], dtype=np.int64)
         active = np.ones(faces.shape[0], dtype=np.uint8)
+        if shells is not None and n_shells > 1:
+            first = self.intersections(faces, shells, n_shells, within=True, between=True, max_examples=0,
+                                       threads=threads)
+            involved = np.union1d(np.flatnonzero(first.self_found), first.shell_pairs.ravel())
+            if involved.size == 0:
+                return np.zeros((0, 2), dtype=np.int64)
+            active = np.isin(shells, involved).astype(np.uint8)
+        labels = np.zeros(faces.shape[0], dtype=np.int64)
         found = _extension().pairs(self.vertices, faces, labels, active, 1, True, False, -1, int(threads))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
         return np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()

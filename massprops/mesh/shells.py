@@ -64,7 +64,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})
     geometry = _geometry(vertices)
-    pairs = geometry.crossing_pairs(faces)
+    pairs = geometry.crossing_pairs(faces, labels, n_shells)
     if pairs.size or repeated:
         return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
     if n_shells == 1:
@@ -253,12 +253,15 @@ def _zero_shells(vertices, faces, labels, six, bound):
 
 def _shell_boxes(vertices, faces, labels, n_shells):
     """Per shell: lowest and highest coordinate (n_shells, 2, 3), over the vertices its faces use."""
+    corners = vertices[faces]
+    order = np.argsort(labels, kind="stable")
+    starts = np.searchsorted(labels[order], np.arange(n_shells))
     low = np.full((n_shells, 3), np.inf)
     high = np.full((n_shells, 3), -np.inf)
-    for k in range(3):
-        corner = vertices[faces[:, k]]
-        np.minimum.at(low, labels, corner)
-        np.maximum.at(high, labels, corner)
+    present = np.bincount(labels, minlength=n_shells) > 0
+    if present.any():
+        low[present] = np.minimum.reduceat(corners.min(axis=1)[order], starts[present], axis=0)
+        high[present] = np.maximum.reduceat(corners.max(axis=1)[order], starts[present], axis=0)
     return np.stack([low, high], axis=1)
 
 
