@@ -390,3 +390,19 @@ def test_scene_and_spin_warn_of_a_kg_per_m3_density_without_unit(tmp_path, runne
         plain = runner.invoke(main, [*args, "--density", "7850", "--unit", "mm"])
         assert plain.exit_code == 0 and _warnings(plain.stderr) == []
         assert "density 7850 kg/m³" in plain.stdout
+
+
+def test_view_takes_points_with_spaces(tmp_path, runner):
+    path = _cube_stl(tmp_path / "a.stl")
+    out = tmp_path / "a.png"
+    result = runner.invoke(main, ["view", path, "-o", str(out), "--translate", "1", "2", "3", "--about", "0", "0", "1"])
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_size > 0
+
+
+def test_props_warns_of_files_that_mix_declared_and_undeclared_units(tmp_path, runner):
+    files = [_cube_stl(tmp_path / "a.stl"), _cube_3mf(tmp_path / "b.3mf")]
+    out = runner.invoke(main, ["props", *files, "--format", "csv"])
+    assert out.exit_code == 0, out.output
+    assert [w for w in _warnings(out.stderr) if "mixes units" in w] != []
+    assert _warnings(runner.invoke(main, ["props", *files, "--unit", "mm"]).stderr) == []

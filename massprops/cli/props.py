@@ -67,5 +67,5 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     elif output_format == "csv":
         options.echo(report.to_csv([report.csv_row(o) for o in objects]), nl=False)
     if declared:
-        options.warn_units(density, unit, declared)
+        options.warn_units(density, unit, declared, mixed=True)
     options.exit_with(failed)
