@@ -14,20 +14,24 @@ import os
 from collections.abc import Iterable, Mapping
 from typing import Any, Union
 
+from numpy.typing import ArrayLike
+
 from . import compute
 from .compute import Result
-from .errors import OptionError, option
+from .errors import ArgumentTypeError, OptionError, option
 from .frames import Pose
+from .mesh.arrays import is_path
 
 __all__ = ["mass_properties", "Source"]
 
 # What mass_properties takes: a file, a TriangleMesh, a trimesh mesh or scene, an object with vertices and
-# faces (or triangles), or a (vertices, faces) pair.
-Source = Union[str, bytes, os.PathLike, Any]
+# faces (or triangles), a (vertices, faces) pair, vertices (with faces as the second argument), or an
+# (m, 3, 3) array of triangles.
+Source = Union[str, bytes, os.PathLike, ArrayLike, tuple, Any]
 
 
-def mass_properties(source: Source, *, density: float | None = None, mass: float | None = None,
-                    unit: str | None = None, pose: Pose | None = None, repair: bool = False,
+def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: float | None = None,
+                    mass: float | None = None, unit: str | None = None, pose: Pose | None = None, repair: bool = False,
                     only: str | Iterable[str] | None = None, density_field: str | None = None,
                     density_map: Mapping[str, float] | None = None, shell: float | None = None,
                     max_unpacked: int | None = None, self_intersection: bool | None = None) -> Result:
@@ -35,13 +39,16 @@ def mass_properties(source: Source, *, density: float | None = None, mass: float
 
     Parameters
     ----------
-    source : path, TriangleMesh, trimesh.Trimesh, trimesh.Scene, object or (vertices, faces)
+    source : path, TriangleMesh, trimesh.Trimesh, trimesh.Scene, object, (vertices, faces), vertices or triangles
         A mesh file of any registered format (``str``, ``bytes`` or
         ``os.PathLike``); a :class:`massprops.TriangleMesh`; any object with
         ``vertices`` (n, 3) and ``faces`` (m, 3) (a ``trimesh.Trimesh``) or
         ``vertices`` and ``triangles`` (Open3D, as numpy arrays); a
         ``(vertices, faces)`` pair of arrays or lists (faces of any integer
-        type); or a ``trimesh.Scene``, computed as an assembly.  Coordinates
+        type), or the vertices with the faces as the second argument,
+        ``mass_properties(V, F)``; an ``(m, 3, 3)`` array of triangle corners
+        (numpy-stl's ``mesh.vectors``, or its ``mesh.Mesh`` itself); or a
+        ``trimesh.Scene``, computed as an assembly.  Coordinates
         are in the mesh's own (local) frame; vertices are welded by exact
         coordinates.  One source per call: for many files, call it per file
         or use :func:`massprops.batch.run.run_batch`.
@@ -96,6 +103,11 @@ def mass_properties(source: Source, *, density: float | None = None, mass: float
         A source of the wrong type (``ArgumentTypeError``), e.g. a list of paths.
     """
     compute.check_pose(pose)
+    if faces is not None:
+        if is_path(source) or _is_trimesh_scene(source):
+            raise ArgumentTypeError("faces: given with a file or a scene, which carry their own",
+                                    fix="pass faces only with an array of vertices, mass_properties(V, F)")
+        source = (source, faces)
     if _is_trimesh_scene(source):
         ignored = [name for name, value in (("mass", mass), ("shell", shell), ("density_field", density_field),
                                             ("density_map", density_map)) if value is not None]

@@ -9,7 +9,7 @@ import os
 import time
 
 import numpy as np
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 from . import core as _core
@@ -19,6 +19,7 @@ from .mesh.arrays import as_mesh, is_path
 from .mesh.surface import TriangleMesh
 from .properties import MassProperties, unit_factor
 from .resolution import annotate
+from .result import Result
 
 __all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities", "Checked", "checked_solid"]
 
@@ -55,20 +56,6 @@ def order_for(only):
     """Highest moment needed for the quantities in ``only`` (None: everything)."""
     wanted = quantities(only)
     return 2 if not wanted else max(QUANTITIES[q] for q in wanted)
-
-
-@dataclass(frozen=True, eq=False)
-class Result:
-    """One input's outcome: its properties plus what was checked and said on the way."""
-
-    file: str
-    properties: MassProperties
-    triangles: int
-    checks: dict
-    warnings: tuple = ()
-    elapsed_s: float = 0.0
-    source_dtype: str = "float64"
-    extra: dict = field(default_factory=dict)
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,

@@ -30,6 +30,7 @@ __all__ = [
     "option",
     "render_options",
     "printable",
+    "reason",
 ]
 
 # Options that are both keyword arguments of the library and command-line options.
@@ -81,6 +82,25 @@ def printable(text):
     if not _UNPRINTABLE.search(text):
         return text
     return _UNPRINTABLE.sub(_escaped, _LINE_BREAK.sub(" ", text))
+
+
+# A Python class name in a message (``DaeMalformedError:``, ``BadZipFile:``): users are told what, not which class.
+_CLASS_NAME = re.compile(r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|ZipFile)\b:?\s*")
+# Exceptions a third-party reader raises on its own bugs: their text is about its code, not the file.
+_INTERNAL = (AttributeError, TypeError, KeyError, IndexError, NameError, AssertionError, RecursionError,
+             ZeroDivisionError)
+
+
+def reason(exc, internal="its reader failed on this content"):
+    """Why a third-party call failed, in words: the exception's message without class names.
+
+    An exception that is a reader's own bug (an ``AttributeError`` on ``None``,
+    a ``KeyError``...) gives ``internal`` instead, whose text would mean nothing to a user.
+    """
+    if isinstance(exc, _INTERNAL):
+        return internal
+    text = _CLASS_NAME.sub("", str(exc)).strip().strip(":").strip()
+    return text or internal
 
 
 def option(name, value=None):

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import printable
 
-__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_text", "significant", "vector_text",
+__all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_jsonl", "to_text", "significant", "vector_text",
            "display_bounds", "about_bound", "csv_row", "CSV_COLUMNS", "to_csv", "junit"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
@@ -74,7 +74,7 @@ def _result_dict(result, omega, about, only, extra):
         out["volume"] = p.volume
     if want("mass"):
         out["mass"] = p.mass
-        out["density"] = p.density
+    out["density"] = p.density              # the density in use, whatever was asked
     if want("surface_area"):
         out["surface_area"] = p.surface_area
     if p.unit:
@@ -160,6 +160,11 @@ def to_json(value):
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 
+def to_jsonl(objects):
+    """JSON Lines: each result object on one line, as :func:`to_json` writes it (non-finite values as null)."""
+    return "".join(json.dumps(finite_or_null(plain(obj)), allow_nan=False) + "\n" for obj in objects)
+
+
 def significant(x, bound=None, digits=None):
     """``x`` as text with the digits that are significant given the absolute ``bound``.
 
@@ -237,13 +242,39 @@ def about_bound(obj, bounds, point, *, rotations=1):
     return shifted * 3 ** (rotations - 1) * (1 + 16 * u) ** rotations
 
 
+def _count(n, one, many):
+    return f"{n} {one if n == 1 else many}"
+
+
+def header(obj):
+    """What a result was computed from, and with what density: ``12 triangles, 1 shell, density 1``."""
+    checks = obj.get("checks", {})
+    if "cells" in checks:
+        types = ", ".join(f"{n} {kind}" for kind, n in checks.get("cell_types", {}).items())
+        what = _count(checks["cells"], "cell", "cells") + (f" ({types})" if types else "")
+    else:
+        shells = checks.get("shells")
+        what = _count(obj["triangles"], "triangle", "triangles") + (
+            f", {_count(shells, 'shell', 'shells')}" if isinstance(shells, int) else "")
+        if checks.get("shell_thickness") is not None:
+            what += f", a sheet {checks['shell_thickness']:g} thick"
+    if checks.get("density") == "per cell":
+        density = "density per cell"
+    elif obj.get("density") is not None:
+        mean = "mean " if "parts" in checks else ""            # an assembly's total: mass / volume
+        density = f"{mean}density {obj['density']:.6g}" + (" kg/m³" if obj.get("unit") else "")
+    else:
+        density = None
+    return ", ".join(filter(None, (what, density)))
+
+
 def to_text(obj, *, digits=None):
     """A readable block for one result object (as made by :func:`result_dict`).
 
     Every value shows the digits its error bound leaves significant (see
     :func:`significant`), or ``digits`` significant digits when given.
     """
-    lines = [f"{obj['file']}  ({obj['triangles']} triangles, {obj['checks'].get('shells', '?')} shell(s))"]
+    lines = [f"{obj['file']}  ({header(obj)})"]
     err, bounds = obj["error"], display_bounds(obj)
 
     def row(label, value, bound=None, shown=None):
@@ -261,7 +292,7 @@ def to_text(obj, *, digits=None):
 
     posed = obj["pose"]["rotation"] != np.eye(3).tolist() or any(obj["pose"]["translation"])
     skip = set() if posed else {"center_of_mass_global", "inertia_com_global"}
-    for key, label, own in (("volume", "volume", True), ("mass", "mass", True), ("density", "density", False),
+    for key, label, own in (("volume", "volume", True), ("mass", "mass", True),
                             ("surface_area", "surface area", False), ("center_of_mass", "center of mass", True),
                             ("center_of_mass_global", "center of mass global", False)):
         if key in obj and key not in skip:
@@ -275,7 +306,7 @@ def to_text(obj, *, digits=None):
         for k, axis in enumerate(obj["principal_axes"]):
             row(f"  axis {k + 1}", axis, bounds["principal_axes"])
         if obj["degenerate"]:
-            lines.append(f"  {'degenerate':<22} {obj['degenerate']} (axes chosen by the SPEC's rule)")
+            lines.append(f"  {'degenerate':<22} {obj['degenerate']} (axes chosen by the rule in docs/conventions.md)")
     for k, extra in enumerate(obj.get("inertia_about", [])):
         matrix("about " + vector_text(extra["point"]), extra["inertia"], bounds.get(f"inertia_about.{k}"))
     if "angular_momentum" in obj:

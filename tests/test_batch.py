@@ -223,7 +223,7 @@ def test_resume_drops_a_half_written_last_row(tmp_path):
         paths.append(str(tmp_path / f"t{k}.stl"))
         write_binary(paths[-1], _tilted(solids.tetrahedron(), k).triangles)
     out = str(tmp_path / "r.csv")
-    batch.run_batch(paths, output=out, jobs=1)
+    batch.run_batch(paths, output=out, jobs=1, resume=True)      # a --resume run keeps its state file
     text = open(out, encoding="utf-8").read()
     with open(out, "w", encoding="utf-8") as f:
         f.write(text[:-20])  # the last row lost its tail mid-number

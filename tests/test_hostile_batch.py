@@ -187,7 +187,7 @@ def weird(tmp_path):
 def test_names_of_any_bytes_round_trip_through_csv_and_json(runner, weird, tmp_path):
     expected = sorted(os.fsdecode(os.path.join(os.fsencode(weird), name)) for name in WEIRD_NAMES)
     out = tmp_path / "r.csv"
-    result = runner.invoke(massprops.cli.main, ["batch", weird, "-o", str(out)])
+    result = runner.invoke(massprops.cli.main, ["batch", weird, "-o", str(out), "--resume"])   # keeps its state
     assert result.exit_code == 0, result.output
     rows = _rows(out)
     assert [r["file"] for r in rows] == expected and all(os.path.isfile(r["file"]) for r in rows)

@@ -127,4 +127,4 @@ def test_shell_refusals(tmp_path, runner):
     assert result.exit_code == 2 and "--shell" in result.stderr and "must be positive" in result.stderr
     repaired = runner.invoke(massprops.cli.main, ["props", doubled, "--shell", "0.1", "--repair", "--format", "json"])
     assert repaired.exit_code == 0
-    assert json.loads(repaired.stdout)[0]["warnings"] == ["removed 1 duplicated faces"]
+    assert json.loads(repaired.stdout)[0]["warnings"] == ["removed 1 duplicated face"]

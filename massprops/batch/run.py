@@ -56,6 +56,7 @@ class Settings:
     shell: float | None = None
     max_unpacked: int | None = None
     self_intersection: bool | None = None
+    only: frozenset | None = None         # the quantities to compute (None: all); see massprops.compute.QUANTITIES
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
 
     def key(self):
@@ -64,6 +65,7 @@ class Settings:
         return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
                 "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
                 "max_unpacked": self.max_unpacked, "self_intersection": self.self_intersection,
+                **({"only": sorted(self.only)} if self.only is not None else {}),
                 "rotation": [repr(float(x)) for x in pose.rotation.ravel()],
                 "translation": [repr(float(x)) for x in pose.translation]}
 
@@ -81,6 +83,7 @@ class Outcome:
     message: str
     line: str
     kind: str = "ok"
+    unit: str | None = None          # the length unit the file was computed in (declared or given)
 
     @property
     def retry(self):
@@ -99,6 +102,7 @@ class BatchSummary:
     failures: tuple = ()
     notes: tuple = ()
     text: str | None = None
+    units: tuple = ()               # the length unit of each file computed ok (None: none declared or given)
 
     @property
     def files_per_s(self):
@@ -143,9 +147,10 @@ def run_one(path, settings=Settings(), output_format="csv"):
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
                                  density_map=settings.density_map, shell=settings.shell,
-                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection)
-        obj = report.result_dict(result)
-        return Outcome(path, "ok", "", record(obj, "ok", "", output_format))
+                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection,
+                                 only=settings.only)
+        obj = report.result_dict(result, only=settings.only)
+        return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc, settings.option_style)
         return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), "error")
@@ -274,6 +279,14 @@ def _outcomes(todo, settings, output_format, jobs, scheduler, client, timeout):
         yield from _run_local(todo, settings, output_format, min(jobs, len(todo)), timeout)
 
 
+def _forget_state(output):
+    """Remove the resume state of a complete run: nothing is left to resume (a ``--resume`` run keeps it)."""
+    try:
+        os.remove(state_path(output))
+    except OSError:
+        pass
+
+
 def run_batch(files, settings=Settings(), *, output=None, output_format="csv", jobs=None, scheduler=None,
               client=None, resume=False, timeout=DEFAULT_TIMEOUT, on_start=None, on_outcome=None):
     """Compute a record for every file and write the report, sorted by path.
@@ -300,7 +313,10 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     resume : bool
         Reuse the records of ``output`` whose file has the same size and
         modification time as when it was computed, with the same settings;
-        files whose worker died or that timed out are computed again.
+        files whose worker died or that timed out are computed again.  The
+        state this needs (``REPORT.state.jsonl``) is kept after an interrupted
+        run, a run with files to retry, or a ``resume`` run (for the next
+        one); a complete run without ``resume`` removes it.
     timeout : float or None
         Seconds one file may take in a local worker (default 300); None for
         no limit.  Dask runs are bounded by the cluster's own settings.
@@ -322,7 +338,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
     header = {"massprops_batch": _STATE_VERSION, "format": output_format, "settings": settings.key()}
     kept, todo, notes = plan(files, output, output_format, header, resume)
     writer = ReportWriter(output, output_format, header, kept)
-    status = {}
+    status, units, unfinished = {}, [], False
     if on_start is not None:
         on_start(len(todo))
     stats = {path: file_stat(path) for path in todo}      # before the work reads them: a later change shows
@@ -332,13 +348,19 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
             for outcome in outcomes:
                 writer.add(outcome, stats[outcome.file], retry=outcome.retry)
                 status[outcome.file] = (outcome.status, outcome.message)
+                unfinished |= outcome.retry
+                if outcome.status == "ok":
+                    units.append(outcome.unit)
                 if on_outcome is not None:
                     on_outcome(outcome)
     finally:
         arriving.close()                                  # stops the workers now, whatever ended the loop
         writer.close()
     text = writer.finish()
+    if output is not None and not resume and not unfinished:
+        _forget_state(output)
     failures = tuple(sorted((f, m) for f, (s, m) in status.items() if s != "ok"))
     failed = len(failures) + sum(is_error(line, output_format) for line, _ in kept.values())
     return BatchSummary(ok=len(files) - failed, failed=failed, computed=len(todo), unchanged=len(kept),
-                        elapsed_s=time.perf_counter() - start, failures=failures, notes=tuple(notes), text=text)
+                        elapsed_s=time.perf_counter() - start, failures=failures, notes=tuple(notes), text=text,
+                        units=tuple(units))

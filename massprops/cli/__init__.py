@@ -23,12 +23,14 @@ COMMANDS = {
     "batch": ("batch", "batch"),
     "solids": ("solids", "solids"),
     "regress": ("regress", "regress"),
-    "check": ("check", "check"),
+    "compare": ("compare", "compare"),
+    "check": ("compare", "check"),          # the old name of compare, hidden
     "accuracy": ("accuracy", "accuracy"),
     "spin": ("spin", "spin"),
     "robot": ("robot", "robot"),
     "view": ("view", "view"),
 }
+HIDDEN = frozenset({"check"})
 
 
 class LazyGroup(click.Group):
@@ -52,7 +54,7 @@ class LazyGroup(click.Group):
             ctx.exit(1)
 
     def list_commands(self, ctx):
-        return [name for name, (module, _) in COMMANDS.items() if importlib.util.find_spec(
+        return [name for name, (module, _) in COMMANDS.items() if name not in HIDDEN and importlib.util.find_spec(
             f"{__name__}.{module}") is not None]
 
     def get_command(self, ctx, name):

@@ -61,42 +61,47 @@ def _summary_line(summary):
     return f"{line}; {summary.computed} computed in {summary.elapsed_s:.2f} s, {rate}"
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("paths", nargs=-1, required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
               help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")
 @options.format_option("csv", "jsonl")
-@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
 @click.option("--resume", is_flag=True,
               help="Keep the report's rows for files whose size and mtime are unchanged; compute the rest.")
 @click.option("-r", "--recursive", is_flag=True, help="Descend into sub-directories (and let ** match them).")
 @click.option("--scheduler", metavar="local|tcp://HOST:PORT",
-              help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.")
+              help="Run on Dask: 'local' starts a LocalCluster, an address uses a running scheduler.  "
+                   "Default: local worker processes, no Dask.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar, failure list or summary line.")
 @click.option("--timeout", type=options.NON_NEGATIVE, default=300.0, show_default=True, metavar="SECONDS",
               help="Time one file may take in a local worker before it is stopped and reported (0: no limit; "
                    "--resume computes timed-out files again).")
+@options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal "
+                     "(the other columns are left empty).")
 @options.material_options
 @options.pose_options
 @options.cell_options
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
-def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, density, total_mass,
+def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, only, density, total_mass,
           unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
     a glob such as 'parts/**/*.stl', or @LIST, a text file of paths one a line.
     One file under several names (./a.stl, dir/../a.stl, a link to it) is one
-    row, under the first name.  CSV columns are the SPEC's (inertia about the
-    center of mass, local axes; Ixy, Ixz, Iyz are the tensor's own elements);
+    row, under the first name.  CSV columns are those of docs/conventions.md
+    (inertia about the center of mass, local axes; Ixy, Ixz, Iyz are the tensor's
+    own elements); --only leaves the columns of other quantities empty;
     --format jsonl writes the full `props` objects.  A file that fails gets
     status=error and its message, and the run goes on; a worker that dies costs
     only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
     (the report is still complete).
     """
+    options.refuse_conflicts()
     from ..batch import run as batch_lib
     from ..errors import MassPropsError
 
@@ -112,12 +117,14 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     pose = options.pose_from_options(rotate, translate)
     settings = batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                   density_field=density_field, density_map=density_map, shell=shell,
-                                  max_unpacked=max_unpacked, self_intersection=self_intersection,
+                                  max_unpacked=max_unpacked, self_intersection=self_intersection, only=only,
                                   option_style="cli")
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet,
                    timeout or None)
     if summary.text is not None:
         options.echo(summary.text, nl=False)
+    if summary.units:
+        options.warn_units(density, unit, summary.units, mixed=True)
     if not quiet:
         if duplicates:
             name, kept = duplicates[0]

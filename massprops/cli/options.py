@@ -55,17 +55,48 @@ NON_NEGATIVE = Number(positive=True, zero_ok=True)
 
 
 class Point(click.ParamType):
-    """``X,Y,Z``: three finite numbers."""
+    """Three finite numbers, ``X,Y,Z`` or ``X Y Z`` (see :class:`Command`, which joins the second form)."""
 
     name = "X,Y,Z"
 
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
-        parts = str(value).split(",")
+        parts = str(value).replace(",", " ").split()
         if len(parts) != 3:
-            self.fail(f"expected X,Y,Z, got {value!r}", param, ctx)
-        return tuple(FINITE.convert(part.strip(), param, ctx) for part in parts)
+            self.fail(f"expected three numbers, X,Y,Z or X Y Z, got {value!r}", param, ctx)
+        return tuple(FINITE.convert(part, param, ctx) for part in parts)
+
+
+def _number_like(token):
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+class Command(click.Command):
+    """A command whose three-number options (type :class:`Point`) take ``X,Y,Z`` or ``X Y Z`` alike.
+
+    Before click parses, ``--about 1 2 3`` becomes ``--about 1,2,3``: an
+    option of type Point followed by three numbers takes all three.
+    """
+
+    def parse_args(self, ctx, args):
+        vectors = {opt for p in self.params if isinstance(p.type, Point) for opt in p.opts}
+        joined, i = [], 0
+        while i < len(args):
+            token = args[i]
+            joined.append(token)
+            i += 1
+            if token == "--":
+                joined.extend(args[i:])
+                break
+            if token in vectors and i + 3 <= len(args) and all(_number_like(t) for t in args[i:i + 3]):
+                joined.append(",".join(args[i:i + 3]))
+                i += 3
+        return super().parse_args(ctx, joined)
 
 
 class Rotation(click.ParamType):
@@ -105,26 +136,29 @@ class Bytes(click.ParamType):
 def material_options(f):
     """--density / --mass / --unit."""
     f = click.option("--unit", type=click.Choice(UNIT_CHOICES),
-                     help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.")(f)
+                     help="Declare the mesh's length unit; density is then kg/m³ and all outputs SI.  Default: "
+                          "the unit the file declares (3MF, DAE), else none (mesh units).")(f)
     f = click.option("--mass", "total_mass", type=POSITIVE, help="Total mass (density derived).")(f)
-    f = click.option("--density", type=POSITIVE, help="Density [mass/length³]; default 1, so mass = volume.")(f)
+    f = click.option("--density", type=POSITIVE,
+                     help="Density [mass/length³; kg/m³ with a unit].  Default 1, so mass = volume (robot "
+                          "commands default to 1000 kg/m³).")(f)
     return f
 
 
 def pose_options(f):
     """--rotate / --translate, giving the part's pose (x = A x' + t)."""
-    f = click.option("--translate", type=FINITE, nargs=3, default=None, metavar="X Y Z",
-                     help="Translation t of the pose, in mesh units.")(f)
+    f = click.option("--translate", type=Point(), default=None, metavar="X,Y,Z",
+                     help="Translation t of the pose, in mesh units (X,Y,Z or X Y Z).  Default 0,0,0.")(f)
     f = click.option("--rotate", type=Rotation(), metavar="ROTATION",
                      help="Rotation A of the pose: quat:w,x,y,z | euler:SEQ:a,b,c (degrees; xyz extrinsic, "
-                          "XYZ intrinsic) | matrix:9 numbers row-major.")(f)
+                          "XYZ intrinsic) | matrix:9 numbers row-major.  Default: none (the identity).")(f)
     return f
 
 
 def about_option(f):
     """--about X,Y,Z (repeatable): also the inertia about these global points."""
     return click.option("--about", "about", multiple=True, type=Point(), metavar="X,Y,Z",
-                        help="Also report the inertia about this global point (repeatable).")(f)
+                        help="Also report the inertia about this global point (repeatable; X,Y,Z or X Y Z).")(f)
 
 
 def _density_map(ctx, param, text):
@@ -200,6 +234,70 @@ def only_option(help_text):
     return click.option("--only", "only", metavar="LIST", callback=_only, help=help_text)
 
 
+# Options that cannot be given together, by parameter name, with why (checked before any file is read).
+CONFLICTS = (
+    ("density", "total_mass", "the density is derived from the mass"),
+    ("shell", "density_field", "--density-field is for volume meshes, --shell for surfaces"),
+    ("shell", "density_map", "--density-map is for volume meshes, --shell for surfaces"),
+    ("density_field", "density_map", "each gives every cell's density"),
+    ("density", "density_field", "the field gives every cell's density"),
+    ("rtol", "steps", "a fixed step count or a tolerance"),
+    ("compare_methods", "torque",
+     "--compare-methods measures errors against the torque-free closed form: drop --torque"),
+    ("compare_methods", "out_csv", "--compare-methods prints a table, not one time series"),
+    ("links_glob", "all_links", "--all writes every link"),
+    ("output", "in_place", "--in-place writes MODEL itself"),
+    ("expand", "in_place", "--expand writes a new URDF"),
+    ("timeout", "scheduler", "a Dask run is bounded by its cluster's own settings"),
+    ("check_trimesh", "shell", "--check-trimesh compares solids bounded by surfaces, not sheets"),
+    ("check_trimesh", "density_field", "--check-trimesh compares surfaces, not volume meshes"),
+    ("check_trimesh", "density_map", "--check-trimesh compares surfaces, not volume meshes"),
+    ("compare_methods", "method", "--compare-methods runs every method"),
+    ("compare_methods", "rtol", "--compare-methods runs every method at several tolerances"),
+    ("compare_methods", "steps", "--compare-methods runs every method at several tolerances"),
+    ("compare_methods", "torque_frame", "--compare-methods is torque-free"),
+    ("declared_only", "density", "--declared-only reads no geometry"),
+    ("declared_only", "mass_policy", "--declared-only reads no geometry"),
+    ("declared_only", "on_open", "--declared-only reads no geometry"),
+    ("declared_only", "repair", "--declared-only reads no geometry"),
+)
+# An option that applies only with another, or with some of its values: (option, other, values or None, why).
+NEEDS = (
+    ("torque_frame", "torque", None, "the frame of the torque"),
+    ("digits", "output_format", ("text",), "JSON and CSV keep full precision"),
+    ("check_trimesh", "output_format", ("text", "json", "jsonl"), "the CSV columns have no room for it"),
+)
+
+
+def _given(ctx, name):
+    from click.core import ParameterSource
+    value = ctx.params.get(name)
+    return (ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+            and value not in (None, False, ()))
+
+
+def _spelling(ctx, name):
+    param = next(p for p in ctx.command.params if p.name == name)
+    return max(param.opts, key=len)
+
+
+def refuse_conflicts(ctx=None):
+    """A usage error (exit 2) for the first pair of :data:`CONFLICTS` both given, before any file is read."""
+    ctx = ctx or click.get_current_context()
+    for first, second, why in CONFLICTS:
+        if first in ctx.params and second in ctx.params and _given(ctx, first) and _given(ctx, second):
+            a, b = _spelling(ctx, first), _spelling(ctx, second)
+            raise click.UsageError(f"give {a} or {b}, not both" + (f" ({why})" if why else ""), ctx)
+    for name, other, values, why in NEEDS:
+        if name in ctx.params and other in ctx.params and _given(ctx, name):
+            value = ctx.params[other]
+            if values is None and not _given(ctx, other):
+                raise click.UsageError(f"{_spelling(ctx, name)} needs {_spelling(ctx, other)} ({why})", ctx)
+            if values is not None and value not in values:
+                raise click.UsageError(f"{_spelling(ctx, name)} applies to {_spelling(ctx, other)} "
+                                       f"{' or '.join(values)}, not {value} ({why})", ctx)
+
+
 def pose_from_options(rotation, translate):
     """The Pose that ``--rotate`` (a checked rotation matrix or None) and ``--translate`` describe."""
     import numpy as np
@@ -226,6 +324,23 @@ def echo(text="", *, nl=True):
 
 def echo_error(message):
     click.echo(f"error: {message}", err=True)
+
+
+def warn(message):
+    """One warning line on stderr, options spelled as options."""
+    from ..errors import render_options
+    click.echo(f"warning: {render_options(message, 'cli')}", err=True)
+
+
+def warn_units(density, unit, declared, *, mixed=False):
+    """Warn (once per run) of a density that looks like a unit mistake, and of a report mixing units."""
+    from ..density_units import density_warnings, mixed_units_warning
+    messages = density_warnings(density, unit, declared)
+    if mixed:
+        messages.append(mixed_units_warning(unit, declared))
+    for message in messages:
+        if message:
+            warn(message)
 
 
 def render(exc, path=None):

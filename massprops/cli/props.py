@@ -7,13 +7,14 @@ import click
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=True))
 @options.material_options
 @options.pose_options
 @options.about_option
-@click.option("--omega", type=options.FINITE, nargs=3, default=None, metavar="WX WY WZ",
-              help="Angular velocity in local axes [rad/s]: adds angular momentum and kinetic energy.")
+@click.option("--omega", type=options.Point(), default=None, metavar="WX,WY,WZ",
+              help="Angular velocity in local axes [rad/s] (WX,WY,WZ or WX WY WZ): adds angular momentum and "
+                   "kinetic energy.")
 @options.only_option("Comma-separated quantities: volume, mass, surface_area, center_of_mass, inertia, principal.")
 @click.option("--check-trimesh", is_flag=True, help="Also compute with trimesh and report the relative differences.")
 @options.cell_options
@@ -21,7 +22,7 @@ from . import options
 @options.self_intersection_option
 @options.unpack_option
 @options.digits_option
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "jsonl", "csv")
 def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
           density_map, shell, repair, self_intersection, max_unpacked, digits, output_format):
     """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB; volume meshes via meshio).
@@ -31,17 +32,19 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     digits the bound leaves significant (--digits N for more); JSON and CSV keep
     full precision.  Exit 1 if any file failed; the others are still reported.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..compute import mass_properties
 
     wanted = None if only is None else set(only) | ({"inertia"} if omega is not None else set())
     pose = options.pose_from_options(rotate, translate)
-    objects, failed = [], 0
+    objects, failed, declared = [], 0, []
 
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                  only=wanted, density_field=density_field, density_map=density_map, shell=shell,
                                  max_unpacked=max_unpacked, self_intersection=self_intersection)
+        declared.append(result.properties.unit)
         extra = None
         if check_trimesh:
             from ..validation.crosscheck import trimesh_comparison
@@ -59,6 +62,10 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
             options.echo("")
     if output_format == "json":
         options.echo(report.to_json(objects))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(objects), nl=False)
     elif output_format == "csv":
         options.echo(report.to_csv([report.csv_row(o) for o in objects]), nl=False)
+    if declared:
+        options.warn_units(density, unit, declared, mixed=True)
     options.exit_with(failed)

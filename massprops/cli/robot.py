@@ -32,8 +32,8 @@ def model_options(f):
         click.option("--mass-policy", type=click.Choice(["density", "keep"]), default=None,
                      help="density: mass from densities; keep: the declared mass spread over the geometry "
                           "(default: density for props, keep for check and write)."),
-        click.option("--density", type=options.POSITIVE, help="Density [kg/m³] for geometry the file and --config give none "
-                                                   "(else 1000, with a warning)."),
+        click.option("--density", type=options.POSITIVE, help="Density [kg/m³] for geometry the file and --config give none.  "
+                                                   "Default 1000 (water, as sdformat and MuJoCo), with a warning."),
         click.option("--package", "package", multiple=True, metavar="NAME=DIR", callback=_pairs,
                      help="Where package://NAME/ (or model://NAME/) lives (repeatable); searched first."),
         click.option("--config", "config_path", type=click.Path(dir_okay=False),
@@ -87,6 +87,8 @@ def _emit(objects, output_format, text):
     from ..robot import report as robot_report
     if output_format == "json":
         click.echo(report.to_json(objects))
+    elif output_format == "jsonl":
+        click.echo(report.to_jsonl(objects), nl=False)
     elif output_format == "csv":
         click.echo(robot_report.csv_text(objects), nl=False)
     else:
@@ -144,8 +146,9 @@ def robot():
 @robot.command("props")
 @click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @model_options
-@options.format_option("text", "json", "csv")
-@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
+@options.format_option("text", "json", "jsonl", "csv")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes for several models (default: all cores).")
 @html_option
 def props(models, output_format, jobs, html_path, **kwargs):
     """Every link's mass properties from its geometry, and the robot's total at --joints.
@@ -154,6 +157,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
     principal moments and axes, error bounds, and each geometry with the file
     it resolved to.  Exit 1 if a model or a link could not be computed.
     """
+    options.refuse_conflicts()
     from ..robot.report import props_text
     _one_model_for_html(models, html_path)
     settings = _settings("props", **kwargs)
@@ -168,15 +172,16 @@ def props(models, output_format, jobs, html_path, **kwargs):
 @click.option("--declared-only", is_flag=True, help="Check the declared inertials alone (no meshes read).")
 @click.option("--strict", is_flag=True, help="Exit 1 also on mismatch and missing.")
 @click.option("--massless", multiple=True, metavar="GLOB", help="Links whose mass 0 is intended (repeatable).")
-@click.option("--inertia-rtol", type=float, default=0.1, show_default=True,
+@click.option("--inertia-rtol", type=options.POSITIVE, default=0.1, show_default=True,
               help="Mismatch when max|J_declared − J| / max|J| exceeds this.")
-@click.option("--com-rtol", type=float, default=0.1, show_default=True,
+@click.option("--com-rtol", type=options.POSITIVE, default=0.1, show_default=True,
               help="Mismatch when the COM distance exceeds this fraction of the link size.")
-@click.option("--diagnosis-rtol", type=float, default=0.02, show_default=True,
+@click.option("--diagnosis-rtol", type=options.POSITIVE, default=0.02, show_default=True,
               help="How close a diagnosis's transformed tensor must come to the declared one.")
 @click.option("--junit", type=click.Path(dir_okay=False, writable=True), help="Also write JUnit XML here.")
-@options.format_option("text", "json", "csv", "junit")
-@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, help="Worker processes for several models.")
+@options.format_option("text", "json", "jsonl", "csv", "junit")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes for several models (default: all cores).")
 @html_option
 def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
           jobs, html_path, **kwargs):
@@ -188,12 +193,9 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     --strict also on mismatch and missing); a mismatch explains, since declared
     inertials are rarely of uniform solids.
     """
+    options.refuse_conflicts()
     from ..robot.check import Tolerances
     from ..robot.report import check_text, junit_xml
-    for name, value in (("--inertia-rtol", inertia_rtol), ("--com-rtol", com_rtol),
-                        ("--diagnosis-rtol", diagnosis_rtol)):
-        if not value > 0:
-            raise click.BadParameter("must be positive", param_hint=name)
     _one_model_for_html(models, html_path)
     settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
                          massless=tuple(massless), declared_only=declared_only, **kwargs)
@@ -235,11 +237,10 @@ def write(model, output, in_place, links_glob, all_links, frame, expand, **kwarg
     strict checks (A + B >= C with no tolerance, positive definite); a thin
     plate's moments may be nudged by a few ulps for that, and it is said.
     """
+    options.refuse_conflicts()
     from ..robot.write import write_inertials
-    if bool(output) == bool(in_place):
+    if not output and not in_place:
         raise click.UsageError("give -o OUT or --in-place (one of them)")
-    if expand and in_place:
-        raise click.UsageError("--expand writes a new URDF: give -o OUT, not --in-place")
     settings = _settings("check", **kwargs)
     result = options.guarded(write_inertials, model, settings, links_glob=links_glob or None, all_links=all_links,
                              frame=frame, expand=expand, path=model)

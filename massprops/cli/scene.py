@@ -9,7 +9,7 @@ import click
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
 @click.option("--density", type=options.POSITIVE,
               help="Density for parts that give none (default 1; kg/m³ with a unit).")
@@ -20,7 +20,7 @@ from . import options
 @options.repair_option
 @options.unpack_option
 @options.digits_option
-@options.format_option("text", "json", "csv")
+@options.format_option("text", "json", "jsonl", "csv")
 @click.option("--html", "html_path", type=click.Path(dir_okay=False), metavar="SCENE.html",
               help="Also write a self-contained web page: the assembly, each part's centre of mass, the total's "
                    "principal axes and equivalent box (needs plotly, the view extra).")
@@ -32,6 +32,7 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     geometry is a part.  A mesh used by several parts is integrated once.  A
     part that cannot be computed stops the run with exit 1.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..scene import assembly
     from ..scene.report import scene_blocks, scene_dict, scene_text
@@ -48,8 +49,11 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     if result is None:
         options.exit_with(1)
     obj = scene_dict(result)
+    options.warn_units(density, unit, [obj.get("unit")])
     if output_format == "json":
         options.echo(report.to_json(obj))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(dict(o, file=f"{obj['scene']}#{o['name']}") for o in scene_blocks(obj)), nl=False)
     elif output_format == "csv":
         rows = [report.csv_row(dict(o, file=f"{obj['scene']}#{o['name']}")) for o in scene_blocks(obj)]
         options.echo(report.to_csv(rows), nl=False)

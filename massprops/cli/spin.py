@@ -9,26 +9,27 @@ from ..dynamics.output import plot_trajectory, plot_work_precision, summary, wor
 from . import options
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--omega", type=options.FINITE, nargs=3, required=True, metavar="WX WY WZ",
-              help="Initial angular velocity ω' in local (body) axes [rad/s].")
-@click.option("--duration", type=options.POSITIVE, required=True, metavar="T",
+@click.option("--omega", type=options.Point(), required=True, metavar="WX,WY,WZ",
+              help="Initial angular velocity ω' in local (body) axes [rad/s] (WX,WY,WZ or WX WY WZ).")
+@click.option("--duration", type=options.POSITIVE, required=True, metavar="SECONDS",
               help="Simulated time [s].")
-@click.option("--torque", type=options.FINITE, nargs=3, default=None, metavar="TX TY TZ",
-              help="Constant torque [mass·length²/s²]; torque-free without it.")
+@click.option("--torque", type=options.Point(), default=None, metavar="TX,TY,TZ",
+              help="Constant torque [mass·length²/s²] (TX,TY,TZ or TX TY TZ); torque-free without it.")
 @click.option("--torque-frame", type=click.Choice(["body", "world"]), default="body", show_default=True,
               help="Axes the torque is fixed in.")
 @click.option("--method", type=click.Choice(list(METHODS)), default=DEFAULT_METHOD, show_default=True,
               help="split2/4/6: geometric splitting (exact rotations, |H| kept to rounding); others: scipy.")
 @click.option("--rtol", type=options.POSITIVE, default=None,
               help="Target relative error (default 1e-9).")
-@click.option("--steps", type=click.IntRange(min=1), default=None,
+@click.option("--steps", type=click.IntRange(min=1), default=None, metavar="N",
               help="Fixed step count (splitting methods; instead of --rtol).")
-@click.option("--samples", type=click.IntRange(min=2), default=1001, show_default=True,
+@click.option("--samples", type=click.IntRange(min=2), default=1001, show_default=True, metavar="N",
               help="Rows of the time series.")
-@click.option("--out", "out_csv", type=click.Path(dir_okay=False), help="Write the time series as CSV.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--out", "out_csv", type=click.Path(dir_okay=False), metavar="FILE.csv",
+              help="Write the time series as CSV.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), metavar="FILE.png",
               help="Write a PNG (the time series, or the work–precision plot with --compare-methods).")
 @click.option("--compare-methods", is_flag=True,
               help="Run every method at several tolerances against the closed form: table and log-log plot.")
@@ -44,18 +45,14 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     momentum drift and, torque-free, the error against the closed-form
     (Jacobi elliptic) solution.  Exit 1 on a bad file or option.
     """
+    options.refuse_conflicts()
     from .. import dynamics
     from ..compute import mass_properties
     from ..dynamics.closed_form import torque_free
 
-    if rtol is not None and steps is not None:
-        raise click.UsageError("give --rtol or --steps, not both")
     if steps is not None and method not in SPLITTING:
         raise click.BadParameter(f"--steps applies to split2/split4/split6, not {method}; give --rtol",
                                  param_hint="--steps")
-    if compare_methods and torque is not None:
-        raise click.UsageError("--compare-methods measures errors against the torque-free closed form; "
-                               "drop --torque")
     pose = options.pose_from_options(rotate, translate)
     result = options.guarded(mass_properties, file, density=density, mass=total_mass, unit=unit, pose=pose,
                              repair=repair, path=file)
@@ -65,7 +62,8 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     attitude = pose.rotation
     moments = properties.principal.moments
     click.echo(f"{file}: principal moments {moments[0]:.9g} {moments[1]:.9g} {moments[2]:.9g}"
-               f"{' (SI)' if unit else ''}")
+               f"{' (SI)' if unit else ''}; density {properties.density:.6g}{' kg/m³' if properties.unit else ''}")
+    options.warn_units(density, unit, [properties.unit])
     if compare_methods:
         rows = options.guarded(dynamics.work_precision, properties.inertia_com, omega, duration,
                                attitude=attitude, samples=min(samples, 201), path=file)

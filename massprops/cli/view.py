@@ -17,7 +17,7 @@ def _output(ctx, param, value):
     return value
 
 
-@click.command()
+@click.command(cls=options.Command)
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), callback=_output,
               metavar="OUT.html|OUT.png", help="Write a self-contained web page (.html) or an image (.png).")
@@ -45,6 +45,7 @@ def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate,
     .png (matplotlib, the `plot` extra) shows front, top and side views.
     Options change the result as they do for `props`.  Exit 1 if a file failed.
     """
+    options.refuse_conflicts()
     from .. import report
     from ..compute import mass_properties
     from ..io import read

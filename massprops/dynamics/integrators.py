@@ -132,7 +132,8 @@ def _steps_for(body, omega_p, torque_p, duration, order, rtol):
         # The torque speeds the body up: take the mean |ω| over the run, and the
         # slow rate a tenth of the fast one (measured: still conservative).
         mean = float(np.linalg.norm(omega_p)) + 0.5 * float(np.linalg.norm(torque_p)) * duration / body.moments[0]
-        rates = np.array([0.1, 1.0]) * float(scale.max()) * mean
+        # (a body with three equal moments has no flow rate of its own: its speed sets the step)
+        rates = np.array([0.1, 1.0]) * (float(scale.max()) or 1.0) * mean
     else:
         rates = scale * np.abs(polhode(body.moments, omega_p).amplitude)[[0, 2]]
         if np.count_nonzero(rates) < 2:

@@ -13,7 +13,7 @@ import contextlib
 import io
 import warnings
 
-from ..errors import MassPropsError, MeshFormatError
+from ..errors import MassPropsError, MeshFormatError, reason as reason_of
 
 __all__ = ["third_party"]
 
@@ -57,6 +57,6 @@ def third_party(path, library, read, *args, **kwargs):
     except SystemExit as exc:
         reason = _said(out, err) or f"it exited with status {exc.code}"
     except Exception as exc:  # noqa: BLE001 - third-party readers raise every type for bad bytes
-        reason = f"{type(exc).__name__}: {exc}".rstrip(": ")
+        reason = reason_of(exc)
     raise MeshFormatError(f"cannot parse the file ({library}: {_short(reason)})", path=path,
                           fix="check that the file is a complete mesh of this format")

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..errors import MeshFormatError, reason
 from ..mesh.surface import TriangleMesh
 from .registry import register_format
 
@@ -270,7 +270,7 @@ def read_graph(path):
         except MeshFormatError:
             raise
         except _UNPACKING as exc:
-            raise MeshFormatError(f"cannot unpack the 3MF ({type(exc).__name__}: {exc})", path=path,
+            raise MeshFormatError(f"cannot unpack the 3MF ({reason(exc, 'not a readable zip archive')})", path=path,
                                   fix=_FIX) from None
     _check_totals(walk, items, path)
     return Graph(unit, *_expanded(walk, items))

@@ -4,7 +4,8 @@ What the Python API accepts besides a path: a :class:`TriangleMesh` or
 :class:`VolumeMesh` as is; any object with ``vertices`` and ``faces`` (a
 ``trimesh.Trimesh``) or ``vertices`` and ``triangles`` (Open3D's
 ``TriangleMesh``, as arrays); a ``(vertices, faces)`` pair of arrays or
-lists, with faces of any integer type.  The vertices are welded by exact
+lists, with faces of any integer type; an ``(m, 3, 3)`` array of triangle
+corners (numpy-stl's ``vectors``, or an object carrying them).  The vertices are welded by exact
 coordinates, as every reader welds them (trimesh keeps an STL's corners
 apart), and unused vertices drop out.  Anything else raises a ``TypeError``
 or ``ValueError`` that names the argument and what was expected.
@@ -19,10 +20,10 @@ import numpy as np
 from ..errors import ArgumentTypeError, OptionError
 from .surface import TriangleMesh
 
-__all__ = ["as_mesh", "mesh_from_arrays", "is_path", "SOURCE_FORMS"]
+__all__ = ["as_mesh", "mesh_from_arrays", "mesh_from_triangles", "is_path", "SOURCE_FORMS"]
 
 SOURCE_FORMS = ("a path, a TriangleMesh, a trimesh.Trimesh or trimesh.Scene, an object with vertices and faces, "
-                "or a (vertices, faces) pair")
+                "a (vertices, faces) pair, or an (m, 3, 3) array of triangles")
 
 
 def is_path(value):
@@ -84,6 +85,31 @@ def mesh_from_arrays(vertices, faces, *, argument="source"):
     return TriangleMesh.from_triangles(coordinates[faces.astype(np.int64, copy=False)])
 
 
+def mesh_from_triangles(triangles, *, argument="source"):
+    """A welded :class:`TriangleMesh` from an ``(m, 3, 3)`` array of triangle corners (numpy-stl's ``vectors``)."""
+    corners = _array(triangles, "triangles", argument)
+    if corners.dtype.kind not in "fiu":
+        raise ArgumentTypeError(f"{argument}: triangle corners must be real numbers, got dtype {corners.dtype}")
+    if corners.ndim != 3 or corners.shape[1:] != (3, 3):
+        raise OptionError(f"{argument}: triangles must have shape (m, 3, 3), got {corners.shape}")
+    if corners.shape[0] == 0:
+        raise OptionError(f"{argument}: there are no triangles")
+    return TriangleMesh.from_triangles(corners if corners.dtype in (np.float32, np.float64)
+                                       else corners.astype(np.float64))
+
+
+def _is_triangle_array(source):
+    """An ``(m, 3, 3)`` array, or a list of triangles (not a two-item (vertices, faces) pair)."""
+    if isinstance(source, np.ndarray):
+        return source.ndim == 3
+    if isinstance(source, (list, tuple)) and len(source) != 2 and source:
+        try:
+            return np.asarray(source).ndim == 3
+        except (ValueError, TypeError):
+            return False
+    return False
+
+
 def as_mesh(source, *, argument="source"):
     """The mesh that an in-memory ``source`` describes (see the module's list); paths are the caller's."""
     from .volume import VolumeMesh
@@ -92,6 +118,10 @@ def as_mesh(source, *, argument="source"):
     if hasattr(source, "vertices") and (hasattr(source, "faces") or hasattr(source, "triangles")):
         faces = source.faces if hasattr(source, "faces") else source.triangles
         return mesh_from_arrays(source.vertices, faces, argument=argument)
+    if hasattr(source, "vectors") and not hasattr(source, "vertices"):          # numpy-stl's mesh.Mesh
+        return mesh_from_triangles(source.vectors, argument=argument)
+    if _is_triangle_array(source):
+        return mesh_from_triangles(source, argument=argument)
     if isinstance(source, (tuple, list)):
         if any(is_path(item) for item in source):
             raise ArgumentTypeError(f"{argument}: a list of paths; mass_properties takes one source",

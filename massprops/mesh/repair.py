@@ -57,12 +57,17 @@ def repair_mesh(mesh, *, path=None):
         faces = faces[keep]
     changes = []
     if removed:
-        changes.append(f"removed {removed} duplicated faces")
+        changes.append(f"removed {_faces(removed, 'duplicated ')}")
     if flipped:
-        changes.append(f"re-oriented {flipped} faces for consistent winding")
+        changes.append(f"re-oriented {_faces(flipped)} for consistent winding")
     if added:
-        changes.append(f"closed holes with {added} new faces")
+        changes.append(f"closed holes with {_faces(added, 'new ')}")
     return TriangleMesh(vertices, faces, mesh.source_dtype, mesh.notes, mesh.unit), changes
+
+
+def _faces(n, adjective=""):
+    """``1 new face``, ``3 new faces``."""
+    return f"{n} {adjective}face{'' if n == 1 else 's'}"
 
 
 _ADVICE = (re.compile(r",? (or )?pass \{repair\}(?=[,)]|$)"), re.compile(r"^pass \{repair\} to (.*)$"),

@@ -72,7 +72,7 @@ def _without_duplicates(mesh, repair, path):
     if not repair:
         raise OpenMeshError(f"{duplicates} faces are duplicated (the same triangle twice)", path=path,
                             fix="remove the duplicates, or pass {repair}")
-    return TriangleMesh(mesh.vertices, mesh.faces[keep], mesh.source_dtype), [f"removed {duplicates} duplicated faces"]
+    return TriangleMesh(mesh.vertices, mesh.faces[keep], mesh.source_dtype), [f"removed {duplicates} duplicated face{'' if duplicates == 1 else 's'}"]
 
 
 def shell_mass_properties(mesh, thickness, *, density=None, mass=None, unit=None, pose=None, repair=False,

@@ -66,17 +66,6 @@ class TriangleMesh:
         return cls(vertices, faces, np.dtype(source_dtype or triangles.dtype))
 
     @classmethod
-    def from_corners(cls, corners, *, source_dtype=None):
-        """Weld consecutive triangle corners.
-
-        Parameters
-        ----------
-        corners : ndarray, shape (3m, 3), float32 or float64
-            Corners of triangle k at rows 3k, 3k+1, 3k+2.
-        """
-        return cls.from_triangles(corners, source_dtype=source_dtype)
-
-    @classmethod
     def from_indexed(cls, vertices, faces, *, source_dtype=None, notes=(), unit=None):
         """Weld an indexed mesh by exact coordinates, as :meth:`from_triangles` welds a soup.
 

@@ -157,11 +157,20 @@ def _analyzed(prepared, settings, start):
     total = None if broken else _total(placed, links)
     statuses = {s: sum(1 for link in links if link["status"] == s) for s in STATUSES}
     return {"model": model.path, "format": model.format, "name": model.name, "geometry": settings.geometry,
-            "mass_policy": settings.policy, "status": "ok", "frame": model.frame,
+            "mass_policy": settings.policy, "default_density": _default_density(settings), "status": "ok",
+            "frame": model.frame,
             "joints": {j.name: prepared.values.get(j.name, 0.0) for j in model.joints if j.moves},
             "links": links, "total": total, "summary": {k: v for k, v in statuses.items() if v},
             "resolutions": prepared.resolver.resolutions(), "warnings": warnings,
             "writable": model.writable is None, "elapsed_s": time.perf_counter() - start}
+
+
+def _default_density(settings):
+    """kg/m³ for geometry the file and the config give no density or mass: ``--density``, else 1000."""
+    from .links import DEFAULT_DENSITY
+    if settings.declared_only:
+        return None                     # no geometry is computed
+    return float(settings.density) if settings.density is not None else DEFAULT_DENSITY
 
 
 def _total(placed, links):
@@ -375,8 +384,3 @@ def _rescaled(model, link, prepared, mass):
                 base = scaled_to_mass(base.props, mass)
                 out[f"linear:{abs(factors[0])!r}"] = replace(base, inertia_com=base.inertia_com / abs(factors[0]))
     return out
-
-
-def summary_line(obj):
-    """``3 ok, 1 mismatch`` for one analysed model."""
-    return ", ".join(f"{n} {s}" for s, n in obj.get("summary", {}).items())

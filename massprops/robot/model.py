@@ -191,11 +191,6 @@ class Inertial:
     span: tuple | None = None
     line: int | None = None
 
-    @property
-    def written_tensor(self):
-        """The tensor in the axes it was written in (3, 3)."""
-        return tensor_from_elements({k: v.value for k, v in self.written.items()})
-
 
 @dataclass(frozen=True, eq=False)
 class Link:

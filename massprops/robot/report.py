@@ -29,7 +29,12 @@ def _vector(values, digits=6):
 def _header(obj, extra=""):
     name = f" '{obj['name']}'" if obj.get("name") else ""
     return (f"{obj['model']}  ({obj['format']}{name}, {len(obj['links'])} links, {obj['geometry']} geometry, "
-            f"mass policy {obj['mass_policy']}{extra})")
+            f"mass policy {obj['mass_policy']}{_density(obj)}{extra})")
+
+
+def _density(obj):
+    density = obj.get("default_density")
+    return "" if density is None else f", density {density:g} kg/m³ unless given"
 
 
 def _geometry_text(link):

@@ -15,7 +15,7 @@ import os
 
 import numpy as np
 
-from ..errors import MassPropsError, MeshFormatError
+from ..errors import MassPropsError, MeshFormatError, reason
 from ..frames import Pose, quat_to_matrix
 from ..properties import unit_factor
 from .model import DEFAULT_QUANTITIES, Frame, Part, Placements, ReportRequest, Scene
@@ -249,7 +249,7 @@ def read_instances(path):
             with open(path, encoding="utf-8") as handle:
                 text = handle.read()
     except (OSError, ValueError, UnicodeDecodeError) as exc:
-        raise MeshFormatError(f"cannot read the instances file ({exc.__class__.__name__})", path=path,
+        raise MeshFormatError(f"cannot read the instances file ({reason(exc, 'not readable')})", path=path,
                               fix="check the path (relative to the scene file)") from None
     try:
         if binary:

@@ -1,4 +1,8 @@
-"""``massprops check FILE...``: cross-check against trimesh on the same triangles, raw and fair."""
+"""``massprops compare FILE...``: cross-check against trimesh on the same triangles, raw and fair.
+
+``massprops check`` is the same command under its old name, hidden from the
+command list and saying so.
+"""
 
 from __future__ import annotations
 
@@ -14,8 +18,8 @@ _LABELS = {"volume": "volume", "center_of_mass": "center of mass", "inertia_com"
 @click.argument("files", nargs=-1, required=True, type=click.Path())
 @click.option("--rtol", type=options.NON_NEGATIVE, default=1e-9, show_default=True,
               help="Largest relative difference allowed between massprops and fair trimesh.")
-@options.format_option("text", "json")
-def check(files, rtol, output_format):
+@options.format_option("text", "json", "jsonl")
+def compare(files, rtol, output_format):
     """Compare massprops with trimesh on the same triangles of each FILE.
 
     Two trimesh runs: raw, as a trimesh user gets it (integrals about the
@@ -39,7 +43,20 @@ def check(files, rtol, output_format):
             click.echo(_text(obj, rtol))
     if output_format == "json":
         click.echo(report.to_json(objects))
+    elif output_format == "jsonl":
+        click.echo(report.to_jsonl(objects), nl=False)
     options.exit_with(failed)
+
+
+def _deprecated(**kwargs):
+    click.echo("note: `massprops check` is now `massprops compare` (`check` will be removed)", err=True)
+    return compare.callback(**kwargs)
+
+
+check = click.Command("check", params=compare.params, callback=_deprecated, hidden=True,
+                      context_settings=compare.context_settings,
+                      help="Deprecated name of `massprops compare` (it will be removed): " + compare.help,
+                      short_help="Deprecated: use `massprops compare`.")
 
 
 def _one(path, rtol):

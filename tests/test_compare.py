@@ -1,4 +1,4 @@
-"""`massprops check`: trimesh raw and fair on the same triangles, and why they differ."""
+"""`massprops compare`: trimesh raw and fair on the same triangles, and why they differ."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def write_part(path, offset):
 
 def test_far_part_raw_difference_large_fair_tiny_and_explained(tmp_path):
     part = write_part(tmp_path / "far.obj", 1e6)
-    result = run("check", part, "--format", "json")
+    result = run("compare", part, "--format", "json")
     assert result.exit_code == 0, result.output
     (found,) = json.loads(result.output)
     # The inertia about the COM: ~(offset/size)³ · 2⁻⁵³ ≈ 1 relative for trimesh about the origin.
@@ -38,7 +38,7 @@ def test_far_part_raw_difference_large_fair_tiny_and_explained(tmp_path):
     assert found["within_tolerance"] and found["digits_lost_raw"] > 10
     assert "integrates about the origin" in found["explanation"]
 
-    text = run("check", part)
+    text = run("compare", part)
     assert text.exit_code == 0
     assert "why raw differs: trimesh integrates about the origin" in text.output
     assert "digits" in text.output and "ok: fair difference" in text.output
@@ -46,7 +46,7 @@ def test_far_part_raw_difference_large_fair_tiny_and_explained(tmp_path):
 
 def test_a_part_at_the_origin_has_nothing_to_explain(tmp_path):
     part = write_part(tmp_path / "near.obj", 0.0)
-    result = run("check", part, "--format", "json")
+    result = run("compare", part, "--format", "json")
     assert result.exit_code == 0, result.output
     (found,) = json.loads(result.output)
     assert found["explanation"] is None
@@ -56,7 +56,7 @@ def test_a_part_at_the_origin_has_nothing_to_explain(tmp_path):
 def test_digits_lost_grow_with_the_offset(tmp_path):
     lost = []
     for offset in (1e2, 1e4):
-        (found,) = json.loads(run("check", write_part(tmp_path / f"p{offset:g}.obj", offset), "--format",
+        (found,) = json.loads(run("compare", write_part(tmp_path / f"p{offset:g}.obj", offset), "--format",
                                   "json").output)
         lost.append(found["relative_difference_raw"]["inertia_com"])
     # Three powers of the offset: 100× farther costs about 10⁶ in accuracy (within rounding luck).
@@ -67,10 +67,10 @@ def test_fair_difference_beyond_tolerance_fails(tmp_path):
     part = tmp_path / "torus.obj"
     mesh = solids.torus(24, 12)
     obj.write(part, mesh.vertices, mesh.faces)
-    (found,) = json.loads(run("check", part, "--format", "json").output)
+    (found,) = json.loads(run("compare", part, "--format", "json").output)
     fair = max(found["relative_difference"].values())
     assert 0 < fair <= 1e-12
-    result = run("check", part, "--rtol", f"{fair / 2!r}")
+    result = run("compare", part, "--rtol", f"{fair / 2!r}")
     assert result.exit_code == 1 and "FAIL: fair difference" in result.output
 
 
@@ -78,7 +78,7 @@ def test_bad_file_is_one_error_line_and_good_ones_still_checked(tmp_path):
     good = write_part(tmp_path / "good.obj", 10.0)
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
-    result = run("check", bad, good)
+    result = run("compare", bad, good)
     assert result.exit_code == 1
     assert f"error: {bad}" in result.output and "good.obj" in result.output
     assert "Traceback" not in result.output
@@ -98,3 +98,16 @@ def test_props_check_trimesh_compares_at_density_one_whatever_the_material(tmp_p
     part = write_part(tmp_path / "part.obj", 0.0)
     (found,) = json.loads(run("props", part, "--check-trimesh", "--format", "json", *options).output)
     assert max(found["trimesh"]["relative_difference"].values()) <= 1e-12
+
+
+def test_check_is_the_hidden_deprecated_name_of_compare(tmp_path):
+    part = write_part(tmp_path / "p.obj", 0.0)
+    old, new = run("check", part, "--format", "json"), run("compare", part, "--format", "json")
+    assert old.exit_code == new.exit_code == 0
+    drop = ("elapsed_s",)
+    strip = [[{k: v for k, v in o.items() if k not in drop} for o in json.loads(r.stdout)] for r in (old, new)]
+    assert strip[0] == strip[1]
+    assert "massprops compare" in old.stderr and new.stderr == ""
+    listing = run("--help").output
+    assert " compare " in listing and " check " not in listing
+    assert "Deprecated" in run("check", "--help").output
