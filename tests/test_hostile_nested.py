@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import massprops
 import untrusted_files as files
 from massprops.cli import main
-from massprops.errors import MassPropsError, MeshFormatError, MeshGeometryError
+from massprops.errors import MassPropsError, MeshFormatError, MeshGeometryError, OptionError
 
 CASE_SECONDS = 20
 
@@ -76,6 +76,18 @@ def test_a_vtu_with_a_voxel_integrates_it_and_refuses_unknown_cells(tmp_path):
         massprops.mass_properties(tmp_path / "unknown.vtu")
 
 
+def test_a_collada_graph_places_each_geometry_once_at_every_instance(tmp_path):
+    from massprops.scene.assembly import compute_scene, load_scene
+    path = tmp_path / "shared.dae"
+    count = files.collada_shared(str(path), 6)                      # 64 disjoint unit cubes through shared nodes
+    result = _volume_is(path, count)
+    assert result.triangles == 12 * count
+    scene = load_scene(str(path))
+    assert len(scene.parts) == count and len(scene.meshes) == 1       # one geometry, integrated once
+    total = compute_scene(scene).total
+    assert abs(Fraction(total.volume) - count) <= Fraction(total.error.volume)
+
+
 # ---------------------------------------------------------------- hangs and runaway memory
 
 def test_nested_graphs_are_bounded_before_expansion(tmp_path):
@@ -83,12 +95,27 @@ def test_nested_graphs_are_bounded_before_expansion(tmp_path):
     files.collada_graph(str(tmp_path / "bomb.dae"), 30)              # 2**30 instances in about 1 kB
     files.collada_graph(str(tmp_path / "cycle.dae"), 3, cycle=True)
     with time_limit():
-        with pytest.raises(MeshFormatError, match="nested more than 100 levels"):
+        with pytest.raises(MeshFormatError, match="nested more than 100 levels.*max_depth=N"):
             massprops.mass_properties(tmp_path / "chain.3mf")
-        with pytest.raises(MeshFormatError, match="more than 100000 geometries"):
+        with pytest.raises(MeshFormatError, match="more than the limit of 100000.*max_instances=N"):
             massprops.mass_properties(tmp_path / "bomb.dae")
         with pytest.raises(MeshFormatError, match="instances itself"):
             massprops.mass_properties(tmp_path / "cycle.dae")
+
+
+def test_the_graph_limits_are_options(runner, tmp_path):
+    files.chain_3mf(tmp_path / "chain.3mf", 150)
+    files.collada_shared(str(tmp_path / "shared.dae"), 7)            # 128 instances
+    deep = runner.invoke(main, ["props", str(tmp_path / "chain.3mf")])
+    assert deep.exit_code == 1 and "nested more than 100 levels" in deep.output and "--max-depth N" in deep.output
+    raised = runner.invoke(main, ["props", str(tmp_path / "chain.3mf"), "--max-depth", "151", "--format", "json"])
+    assert raised.exit_code == 0 and '"volume": 1e-09' in raised.output
+    for command in (["props"], ["batch", "-q"], ["scene"]):
+        many = runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "100"])
+        assert many.exit_code == 1 and "places 128 geometries" in many.output and "--max-instances N" in many.output
+        assert runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "128"]).exit_code == 0
+    with pytest.raises(OptionError, match="max_depth must be a positive whole number"):
+        massprops.mass_properties(tmp_path / "chain.3mf", max_depth=0)
 
 
 def test_a_3mf_component_cycle_is_refused(tmp_path):

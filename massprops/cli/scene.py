@@ -1,4 +1,4 @@
-"""``massprops scene SCENE``: mass properties of an assembly (TOML, GLB, glTF or 3MF)."""
+"""``massprops scene SCENE``: mass properties of an assembly (TOML, GLB, glTF, 3MF or COLLADA)."""
 
 from __future__ import annotations
 
@@ -19,13 +19,14 @@ from . import options
                      "for every part and the total (overrides the scene's [report] quantities and principal).")
 @options.repair_option
 @options.unpack_option
+@options.graph_limit_options
 @options.digits_option
 @options.format_option("text", "json", "csv")
-def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_format):
+def scene(scene_file, density, unit, only, repair, max_unpacked, max_instances, max_depth, digits, output_format):
     """Mass properties of each part of SCENE and of the whole assembly.
 
     SCENE is a .toml assembly (parts with meshes, densities and poses; frames;
-    a [report] section) or a .glb/.gltf/.3mf scene graph, where every node with
+    a [report] section) or a .glb/.gltf/.3mf/.dae scene graph, where every node with
     geometry is a part.  A mesh used by several parts is integrated once.  A
     part that cannot be computed stops the run with exit 1.
     """
@@ -34,14 +35,13 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     from ..scene.report import scene_blocks, scene_dict, scene_text
 
     wanted = only
-    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, max_unpacked=max_unpacked,
-                             path=scene_file)
+    limits = {"max_unpacked": max_unpacked, "max_instances": max_instances, "max_depth": max_depth}
+    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, **limits, path=scene_file)
     if loaded is not None and wanted is not None:
         principal = frozenset({"total", "parts"}) if "principal" in wanted else frozenset()
         loaded = replace(loaded, report=replace(loaded.report, quantities=frozenset(wanted - {"principal"}),
                                                 principal=principal))
-    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, max_unpacked=max_unpacked,
-                                        path=scene_file)
+    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, **limits, path=scene_file)
     if result is None:
         options.exit_with(1)
     obj = scene_dict(result)
