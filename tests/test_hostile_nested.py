@@ -191,10 +191,44 @@ def test_a_collada_unit_beyond_double_range(tmp_path):
         massprops.mass_properties(path)
 
 
-def test_coordinates_near_the_largest_double_are_a_massprops_error(tmp_path):
-    path = tmp_path / "huge.obj"       # an extent of 1e308 along each axis: the frame's scale is 2**1024
-    path.write_text("v 0 0 0\nv 1e308 0 0\nv 0 1e308 0\nv 0 0 1e308\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
-    with pytest.raises(MeshGeometryError, match="overflow double precision"):
+def _tetra_obj(path, x, y, z):
+    """A tetrahedron with legs x, y, z along the axes (volume xyz/6)."""
+    path.write_text(f"v 0 0 0\nv {x!r} 0 0\nv 0 {y!r} 0\nv 0 0 {z!r}\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    return path
+
+
+@pytest.mark.parametrize("legs, said", [
+    ((1e308, 1e308, 1e308), "too large for double precision .its volume would overflow.: its box is 1e\\+308 by 1e\\+308 by 1e\\+308 mesh "
+                            "units, a volume up to 1e\\+924"),
+    ((1e308, 1.0, 1.0), "too large for double precision .its volume would overflow.: its box is 1e\\+308 by 1 by 1 mesh units"),
+    ((1e200, 1e-100, 1.0), "span too many orders of magnitude .* box is 1e\\+200 by 1e-100 by 1"),
+    ((1e-150, 1e-150, 1e-10), "too small for double precision .its volume would underflow.: its box is 1e-150 by 1e-150 by 1e-10 mesh units, "
+                              "a volume of at most 1e-310"),
+])
+def test_a_part_outside_the_range_is_refused_naming_it(tmp_path, legs, said):
+    # Before: an OverflowError from core/frame.py, or "zero volume" for parts that are not flat.
+    with pytest.raises(MeshGeometryError, match=said):
+        massprops.mass_properties(_tetra_obj(tmp_path / "part.obj", *legs))
+
+
+def test_results_below_the_smallest_normal_double(tmp_path):
+    path = _tetra_obj(tmp_path / "tiny.obj", 1e-90, 1e-90, 1e-90)
+    # The volume, 1.7e-289 m³, is normal: integrated, within its bound of the exact value.
+    result = massprops.mass_properties(path, unit="um", only="volume")
+    exact = Fraction(1e-90) ** 3 / 6 / 10 ** 18
+    assert abs(Fraction(result.properties.volume) - exact) <= Fraction(result.properties.error.volume)
+    # Its inertia, about 1e-470 kg·m², is not (before: 0, and a warning that the principal moment was negative).
+    with pytest.raises(MeshGeometryError, match="the inertia is below 2.2e-308"):
+        massprops.mass_properties(path, unit="um")
+    with pytest.raises(MeshGeometryError, match="the volume, mass and inertia are below 2.2e-308"):
+        massprops.mass_properties(_tetra_obj(tmp_path / "tinier.obj", 1e-100, 1e-100, 1e-100), unit="um")
+
+
+def test_a_3mf_of_many_items_too_small_for_doubles(tmp_path):
+    # Before: IndexError.  1000 cubes of 1e-150 µm: volumes of 1e-450 µm³.
+    path = tmp_path / "tiny.3mf"
+    files.write_3mf(path, [files.cube_object(1, side=1e-150)], [(1, 3e-150 * k) for k in range(1000)], unit="micron")
+    with pytest.raises(MeshGeometryError, match="too small for double precision"):
         massprops.mass_properties(path)
 
 
