@@ -136,6 +136,27 @@ def test_sparse_files_of_every_format_are_refused_before_reading(tmp_path, name)
         massprops.mass_properties(path)
 
 
+def _compressed_vtu(path, points, compression):
+    import meshio
+    import numpy as np
+    meshio.write(path, meshio.Mesh(points, [("tetra", np.array([[0, 1, 2, 3]]))]), compression=compression)
+    return path
+
+
+@pytest.mark.parametrize("compression", ["zlib", "lzma"])
+def test_compressed_vtu_blocks_are_read(tmp_path, compression):
+    _volume_is(_compressed_vtu(tmp_path / "part.vtu", files.VTK_CELLS[10][0], compression), Fraction(1, 6))
+
+
+def test_a_compressed_vtu_inflating_past_the_limit_is_refused(tmp_path):
+    import numpy as np
+    points = np.zeros((3_000_000, 3))                   # 72 MB of zeros in a file of about 100 kB
+    points[:4] = files.VTK_CELLS[10][0]
+    path = _compressed_vtu(tmp_path / "bomb.vtu", points, "zlib")
+    with time_limit(), pytest.raises(MeshFormatError, match="inflate to more than 67.1 MB"):
+        massprops.mass_properties(path)
+
+
 def _seed(path):
     import struct
 

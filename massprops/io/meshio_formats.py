@@ -5,6 +5,10 @@ A file with volume cells becomes a :class:`massprops.mesh.volume.VolumeMesh`
 with surface cells only becomes a :class:`massprops.mesh.surface.TriangleMesh`.
 Higher-order cells are integrated with straight edges through their corner
 nodes (meshio lists corners first), and a warning says so.
+
+A compressed VTU (zlib or LZMA blocks) may inflate to at most what an
+archive may unpack to (:func:`massprops.io.inputs.unpack_limit`): meshio
+inflates every block whole, so its decompressors are bounded while it reads.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import numpy as np
 from ..errors import MeshFormatError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
+from .inputs import file_size_text, unpack_limit
 from .registry import register_format
 
 __all__ = ["read", "EXTENSIONS"]
@@ -52,11 +57,56 @@ def _load(path):
         raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
     with _VTK_CELLS_SEEN:
         hooked, dropped = _hook_vtk_cells()
+        inflating = _hook_decompression(path)
         try:
             return third_party(path, "meshio", meshio.read, path), dropped
         finally:
             for module, original in hooked:
                 module.vtk_cells_from_data = original
+            for module, name, original in inflating:
+                setattr(module, name, original)
+
+
+class _Bounded:
+    """A stand-in for the ``zlib`` or ``lzma`` module whose ``decompress`` stops at a shared budget of bytes."""
+
+    def __init__(self, module, budget, path):
+        self.module, self.budget, self.path = module, budget, path
+
+    def __getattr__(self, name):
+        return getattr(self.module, name)
+
+    def decompress(self, data, *args, **kwargs):
+        inflater = self.module.decompressobj() if hasattr(self.module, "decompressobj") else \
+            self.module.LZMADecompressor()
+        limit = self.budget[0]
+        out = inflater.decompress(data, limit + 1)
+        if len(out) > limit:
+            total = self.budget[1]
+            raise MeshFormatError(f"the compressed data inflate to more than {file_size_text(total)}, the limit for "
+                                  f"a file of its size", path=self.path,
+                                  fix="the file is damaged or hostile; export it again (or uncompressed)")
+        self.budget[0] -= len(out)
+        return out
+
+
+def _hook_decompression(path):
+    """Bound the zlib and LZMA blocks meshio's VTU reader inflates; returns ``[(module, name, original)]``."""
+    import importlib
+    import os
+    try:
+        module = importlib.import_module("meshio.vtu._vtu")
+    except ImportError:  # pragma: no cover - another meshio layout
+        return []
+    total = unpack_limit(os.path.getsize(path))
+    budget = [total, total]
+    hooked = []
+    for name in ("zlib", "lzma"):
+        original = getattr(module, name, None)
+        if original is not None:
+            setattr(module, name, _Bounded(original, budget, path))
+            hooked.append((module, name, original))
+    return hooked
 
 
 def _hook_vtk_cells():
