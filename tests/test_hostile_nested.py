@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import struct
 from fractions import Fraction
 
 import pytest
@@ -155,6 +156,24 @@ def test_a_compressed_vtu_inflating_past_the_limit_is_refused(tmp_path):
     path = _compressed_vtu(tmp_path / "bomb.vtu", points, "zlib")
     with time_limit(), pytest.raises(MeshFormatError, match="inflate to more than 67.1 MB"):
         massprops.mass_properties(path)
+
+
+def test_header_counts_are_checked_against_the_file_before_reading(tmp_path):
+    # A 600-byte GLB whose POSITION accessor has no buffer view and 1e9 items: trimesh allocated 12 GB of zeros
+    # (24 GB resident before it was killed).
+    files.write_glb(tmp_path / "zeros.glb", count=10 ** 9, placeholder=True)
+    # A MuJoCo .msh whose counts call for 1.2 GB in 64 bytes; a binary PLY header of 1e9 vertices on 200 bytes.
+    (tmp_path / "counts.msh").write_bytes(struct.pack("<4i", 10 ** 8, 0, 0, 4) + bytes(48))
+    (tmp_path / "header.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty "
+                                          b"float x\nproperty float y\nproperty float z\nend_header\n" + bytes(200))
+    said = {"zeros.glb": "12.0 GB of zeros from a file of", "counts.msh": "call for 1200000064 bytes, the file has 64",
+            "header.ply": "1000000000 vertex elements, which need at least 12.0 GB"}
+    for name, message in said.items():
+        with time_limit(), pytest.raises(MeshFormatError, match=message):
+            massprops.mass_properties(tmp_path / name)
+    files.write_glb(tmp_path / "small.glb", count=4, placeholder=True)      # 48 bytes of zeros: a flat mesh
+    with pytest.raises(MeshGeometryError):
+        massprops.mass_properties(tmp_path / "small.glb")
 
 
 def _seed(path):

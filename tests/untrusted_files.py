@@ -106,8 +106,11 @@ TETRA = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float32)
 TETRA_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.uint32)
 
 
-def write_glb(path, kind="VEC3", count=4):
-    """A GLB of the unit tetrahedron whose POSITION accessor says ``kind`` and ``count``."""
+def write_glb(path, kind="VEC3", count=4, placeholder=False):
+    """A GLB of the unit tetrahedron whose POSITION accessor says ``kind`` and ``count``.
+
+    With ``placeholder``, the accessor has no buffer view (zeros, meant to be filled by an extension).
+    """
     width = GLTF_TYPES[kind]
     positions = np.zeros(4 * width, dtype=np.float32)
     flat = TETRA.ravel()[:positions.size]
@@ -121,6 +124,8 @@ def write_glb(path, kind="VEC3", count=4):
                               {"bufferView": 1, "componentType": 5125, "count": 12, "type": "SCALAR"}],
                 "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
                 "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0}
+    if placeholder:
+        del document["accessors"][0]["bufferView"]
     text = json.dumps(document).encode()
     text += b" " * (-len(text) % 4)
     data += b"\0" * (-len(data) % 4)
