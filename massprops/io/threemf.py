@@ -118,10 +118,10 @@ class _Part:
             target = next((v for k, v in attrib.items() if _local(k) == "path"), None) or self.name
             self.build.append((target, attrib.get("objectid"), _transform(attrib.get("transform"), self.path,
                                                                            "a build <item>")))
+        # Each element is freed once read, and its read siblings with it: the tree never holds the mesh.
         element.clear()
-        if tag in ("object", "item"):
-            while element.getprevious() is not None:
-                del element.getparent()[0]
+        while element.getprevious() is not None:
+            del element.getparent()[0]
 
     def _object(self, ident):
         if ident is None:
