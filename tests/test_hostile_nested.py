@@ -166,8 +166,13 @@ def test_header_counts_are_checked_against_the_file_before_reading(tmp_path):
     (tmp_path / "counts.msh").write_bytes(struct.pack("<4i", 10 ** 8, 0, 0, 4) + bytes(48))
     (tmp_path / "header.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty "
                                           b"float x\nproperty float y\nproperty float z\nend_header\n" + bytes(200))
+    # Gmsh 2.2 and 4.1 headers of 1e8 nodes on 70 bytes (meshio allocated 3.2 GB for them before reading).
+    (tmp_path / "gmsh22.msh").write_text("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n100000000\n1 0 0 0\n$EndNodes\n")
+    (tmp_path / "gmsh41.msh").write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 100000000 1 100000000\n"
+                                         "3 1 0 1\n1\n0 0 0\n$EndNodes\n")
     said = {"zeros.glb": "12.0 GB of zeros from a file of", "counts.msh": "call for 1200000064 bytes, the file has 64",
-            "header.ply": "1000000000 vertex elements, which need at least 12.0 GB"}
+            "header.ply": "1000000000 vertex elements, which need at least 12.0 GB",
+            "gmsh22.msh": "declares 100000000 nodes, more than its 70 bytes", "gmsh41.msh": "declares 100000000 nodes"}
     for name, message in said.items():
         with time_limit(), pytest.raises(MeshFormatError, match=message):
             massprops.mass_properties(tmp_path / name)

@@ -9,6 +9,9 @@ nodes (meshio lists corners first), and a warning says so.
 A compressed VTU (zlib or LZMA blocks) may inflate to at most what an
 archive may unpack to (:func:`massprops.io.inputs.unpack_limit`): meshio
 inflates every block whole, so its decompressors are bounded while it reads.
+A Gmsh file's ``$Nodes`` and ``$Elements`` counts are checked against its
+size first (:func:`check_gmsh_counts`): meshio allocates arrays of the
+declared size before it reads them.
 """
 
 from __future__ import annotations
@@ -159,6 +162,57 @@ def _voxels_as_hexahedra(connectivity, offsets, types):
     return connectivity
 
 
+_GMSH_SCAN = 1 << 20
+_GMSH_SECTIONS = ((b"$Nodes", "nodes", 8), (b"$Elements", "elements", 4))    # least bytes each takes
+
+
+def check_gmsh_counts(path):
+    """Refuse a Gmsh ``.msh`` whose ``$Nodes`` or ``$Elements`` header declares more than the file can hold.
+
+    Each node takes at least 8 bytes (``"1 0 0 0\\n"``), each element 4, in every
+    version and encoding; the sections are found by a scan in 1 MiB pieces.
+    """
+    import os
+    import struct
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        first = f.read(256).split(b"\n")
+        if len(first) < 2 or not first[0].strip().startswith(b"$MeshFormat"):
+            return
+        words = first[1].split()
+        try:
+            version, binary, data_size = float(words[0]), words[1] == b"1", int(words[2])
+        except (IndexError, ValueError):
+            return                                  # meshio says what is wrong
+        f.seek(0)
+        tail = b""
+        while True:
+            chunk = f.read(_GMSH_SCAN)
+            if not chunk:
+                return
+            data = tail + chunk
+            for marker, what, least in _GMSH_SECTIONS:
+                at = data.find(b"\n" + marker + b"\n")
+                if at < 0 or (len(data) - at < 64 and len(chunk) == _GMSH_SCAN):
+                    continue                        # none here, or its header is in the next piece
+                body = data[at + len(marker) + 2:]
+                if version >= 4 and binary:
+                    if len(body) < 2 * data_size or data_size not in (4, 8):
+                        continue
+                    count = struct.unpack_from("<QQ" if data_size == 8 else "<II", body)[1]
+                else:
+                    numbers = body.split(b"\n", 1)[0].split()
+                    try:
+                        count = int(numbers[1] if version >= 4 else numbers[0])
+                    except (IndexError, ValueError):
+                        continue
+                if count * least > size:
+                    raise MeshFormatError(f"the Gmsh file declares {count} {what}, more than its "
+                                          f"{file_size_text(size)} can hold", path=path,
+                                          fix="the file is truncated or its header is wrong; export it again")
+            tail = data[-(64 + 16):]
+
+
 def _refuse_dropped(dropped, path):
     if dropped:
         said = ", ".join(f"{count} of VTK type {kind} ({_VTK_NAMES.get(kind, 'not a VTK cell type')})"
@@ -189,6 +243,8 @@ def read(path):
 
     from ..mesh.volume import VolumeMesh
 
+    if os.path.splitext(path)[1].lower() == ".msh":
+        check_gmsh_counts(path)
     mesh, dropped = _load(path)
     _refuse_dropped(dropped, path)
     points = np.asarray(mesh.points, dtype=np.float64)

@@ -64,7 +64,9 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if vertices.shape[0]:
         # Shell volumes are compared in mesh units³: they must not underflow or overflow there.
         from ..core.frame import check_box_range
-        check_box_range(np.ptp(vertices, axis=0).tolist())
+        with np.errstate(over="ignore", invalid="ignore"):     # an extent past the largest double is refused later
+            extents = np.ptp(vertices, axis=0).tolist()
+        check_box_range(extents)
     repeated = weights is not None and bool(np.any(weights != 1))
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})
