@@ -241,6 +241,18 @@ def test_a_collada_unit_beyond_double_range(tmp_path):
         massprops.mass_properties(path)
 
 
+def test_a_collada_tag_that_is_no_xml_name(tmp_path):
+    # Found by the byte fuzz: lxml recovers "<c2026-11-27T05:32:05>" as a tag that lxml's QName then rejects
+    # (ValueError: Invalid tag name).
+    path = tmp_path / "part.dae"
+    files.collada_graph(str(path), 0)
+    path.write_text(path.read_text().replace("<created>", "<c2026-11-27T05:32:05.566542</created><created>", 1))
+    try:
+        _volume_is(path, 1)                       # recovered: the cube, as the file still says
+    except MassPropsError as exc:
+        assert str(exc).startswith(str(path))
+
+
 def _tetra_obj(path, x, y, z):
     """A tetrahedron with legs x, y, z along the axes (volume xyz/6)."""
     path.write_text(f"v 0 0 0\nv {x!r} 0 0\nv 0 {y!r} 0\nv 0 0 {z!r}\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")

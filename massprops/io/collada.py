@@ -51,7 +51,7 @@ def asset(path):
     unit = up = None
     try:
         for _, element in etree.iterparse(path, events=("end",), recover=True, huge_tree=True):
-            tag = etree.QName(element).localname if isinstance(element.tag, str) else ""
+            tag = _localname(element)
             if tag == "unit" and unit is None:
                 unit = element.get("meter")
             elif tag == "up_axis" and up is None:
@@ -85,8 +85,8 @@ def _unit_factor(meter, path):
 
 
 def _localname(element):
-    from lxml import etree
-    return etree.QName(element).localname if isinstance(element.tag, str) else ""
+    """An element's tag without its namespace ("" for comments; a recovered, invalid tag as it is)."""
+    return element.tag.rpartition("}")[2] if isinstance(element.tag, str) else ""
 
 
 _LEAF = object()
