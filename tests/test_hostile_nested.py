@@ -113,7 +113,7 @@ def test_the_graph_limits_are_options(runner, tmp_path):
     assert raised.exit_code == 0 and '"volume": 1e-09' in raised.output
     for command in (["props"], ["batch", "-q"], ["scene"]):
         many = runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "100"])
-        assert many.exit_code == 1 and "places 128 geometries" in many.output and "--max-instances N" in many.output
+        assert many.exit_code == 1 and "places at least 128 geometries" in many.output and "--max-instances N" in many.output
         assert runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "128"]).exit_code == 0
     with pytest.raises(OptionError, match="max_depth must be a positive whole number"):
         massprops.mass_properties(tmp_path / "chain.3mf", max_depth=0)

@@ -128,7 +128,7 @@ def check_instances(path, max_instances=None, max_depth=None):
             if _localname(top) != "node":
                 continue
             total += _count(top, children, counted, max_instances, max_depth, path)
-            check_totals(total, 0, max_instances, path, "geometries")
+            check_totals(total, 0, max_instances, path, "geometries", partial=True)
 
 
 def _count(top, children, counted, max_instances, max_depth, path):
@@ -159,7 +159,7 @@ def _count(top, children, counted, max_instances, max_depth, path):
             stack.append((child, children(child)))
             totals.append(0)
         if totals and totals[-1] > max_instances:
-            check_totals(totals[-1], 0, max_instances, path, "geometries")
+            check_totals(totals[-1], 0, max_instances, path, "geometries", partial=True)
     return counted[id(top)]
 
 

@@ -45,10 +45,14 @@ def too_deep(limit, what, path):
                                f"{option('max_depth', 'N')}")
 
 
-def check_totals(instances, triangles, max_instances, path, what="meshes"):
-    """Refuse a graph placing more than ``max_instances`` meshes or :data:`MAX_TRIANGLES` triangles."""
+def check_totals(instances, triangles, max_instances, path, what="meshes", *, partial=False):
+    """Refuse a graph placing more than ``max_instances`` meshes or :data:`MAX_TRIANGLES` triangles.
+
+    ``partial``: ``instances`` is a count so far (the file places at least that many).
+    """
     if instances > max_instances:
-        raise MeshFormatError(f"the file places {instances} {what} through its instance graph, more than the "
+        counted = f"at least {instances}" if partial else instances
+        raise MeshFormatError(f"the file places {counted} {what} through its instance graph, more than the "
                               f"limit of {max_instances}", path=path,
                               fix=f"export fewer instances (or a merged mesh), or if the file is trusted raise the "
                                   f"limit with {option('max_instances', 'N')}")
