@@ -170,7 +170,12 @@ def test_header_counts_are_checked_against_the_file_before_reading(tmp_path):
     (tmp_path / "gmsh22.msh").write_text("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n100000000\n1 0 0 0\n$EndNodes\n")
     (tmp_path / "gmsh41.msh").write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 100000000 1 100000000\n"
                                          "3 1 0 1\n1\n0 0 0\n$EndNodes\n")
-    said = {"zeros.glb": "12.0 GB of zeros from a file of", "counts.msh": "call for 1200000064 bytes, the file has 64",
+    # A Gmsh file numbering a node 2e7 (meshio allocates a table up to it: 8 GB for a node numbered 2e9).
+    (tmp_path / "tags.msh").write_text("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n"
+                                       "20000000 0 0 1\n$EndNodes\n$Elements\n1\n1 4 2 0 1 1 2 3 20000000\n"
+                                       "$EndElements\n")
+    said = {"zeros.glb": "12.0 GB of zeros from a file of", "tags.msh": "numbers a node 20000000, more than 8388608",
+            "counts.msh": "call for 1200000064 bytes, the file has 64",
             "header.ply": "1000000000 vertex elements, which need at least 12.0 GB",
             "gmsh22.msh": "declares 100000000 nodes, more than its 70 bytes", "gmsh41.msh": "declares 100000000 nodes"}
     for name, message in said.items():

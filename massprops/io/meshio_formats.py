@@ -11,7 +11,9 @@ archive may unpack to (:func:`massprops.io.inputs.unpack_limit`): meshio
 inflates every block whole, so its decompressors are bounded while it reads.
 A Gmsh file's ``$Nodes`` and ``$Elements`` counts are checked against its
 size first (:func:`check_gmsh_counts`): meshio allocates arrays of the
-declared size before it reads them.
+declared size before it reads them; and its node numbers are bounded as it
+reads them (meshio allocates a table as long as the largest node number: a
+150-byte file numbering a node 2,000,000,000 took 8 GB).
 """
 
 from __future__ import annotations
@@ -60,7 +62,7 @@ def _load(path):
         raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
     with _VTK_CELLS_SEEN:
         hooked, dropped = _hook_vtk_cells()
-        inflating = _hook_decompression(path)
+        inflating = _hook_decompression(path) + _hook_gmsh_tags(path)
         try:
             return third_party(path, "meshio", meshio.read, path), dropped
         finally:
@@ -91,6 +93,41 @@ class _Bounded:
                                   fix="the file is damaged or hostile; export it again (or uncompressed)")
         self.budget[0] -= len(out)
         return out
+
+
+_GMSH_TAG_READERS = (("meshio.gmsh._gmsh22", "_read_cells", 2), ("meshio.gmsh._gmsh40", "_read_elements", 1),
+                     ("meshio.gmsh._gmsh41", "_read_elements", 1))
+
+
+def _hook_gmsh_tags(path):
+    """Refuse node numbers whose table (8 bytes a number up to the largest) exceeds the archive limit.
+
+    Returns ``[(module, name, original)]``.
+    """
+    import importlib
+    import os
+    largest = unpack_limit(os.path.getsize(path)) // 8
+    hooked = []
+    for module_name, name, position in _GMSH_TAG_READERS:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError:  # pragma: no cover - another meshio layout
+            continue
+        original = getattr(module, name, None)
+        if original is None:  # pragma: no cover
+            continue
+
+        def bounded(*args, original=original, position=position, **kwargs):
+            tags = np.asarray(args[position]) if len(args) > position else np.zeros(0)
+            if tags.size and int(tags.max()) > largest:
+                raise MeshFormatError(f"the Gmsh file numbers a node {int(tags.max())}, more than {largest} (the "
+                                      "most a file of its size may number)", path=path,
+                                      fix="renumber the nodes (gmsh -renumber), or export the mesh again")
+            return original(*args, **kwargs)
+
+        setattr(module, name, bounded)
+        hooked.append((module, name, original))
+    return hooked
 
 
 def _hook_decompression(path):
