@@ -51,12 +51,12 @@ def check_box_range(extents):
         return                                  # flat, or non-finite (refused where found)
     log_box, shown, volume = _box_text(extents)
     if log_box < _LOG2_BOX[0]:
-        raise MeshGeometryError(f"the part is too small for double precision (its volume would underflow): its box is {shown} mesh units, a "
-                                f"volume of at most {volume}, below 1e-301 (2**-1000)",
+        raise MeshGeometryError(f"the part is too small for double precision (its volume would underflow): its "
+                                f"box is {shown} mesh units, a volume of at most {volume}, below 1e-301 (2**-1000)",
                                 fix="export the mesh in a smaller length unit (larger numbers)")
     if log_box > _LOG2_BOX[1]:
-        raise MeshGeometryError(f"the part is too large for double precision (its volume would overflow): its box is {shown} mesh units, a "
-                                f"volume up to {volume}, above 9e+307 (2**1023)",
+        raise MeshGeometryError(f"the part is too large for double precision (its volume would overflow): its "
+                                f"box is {shown} mesh units, a volume up to {volume}, above 9e+307 (2**1023)",
                                 fix="export the mesh in a larger length unit (smaller numbers)")
 
 
