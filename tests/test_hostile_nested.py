@@ -119,6 +119,25 @@ def test_the_graph_limits_are_options(runner, tmp_path):
         massprops.mass_properties(tmp_path / "chain.3mf", max_depth=0)
 
 
+def test_depth_counts_a_shared_component_met_first_higher_up(tmp_path):
+    # Found by the structure-aware fuzz: object 3 holds the cube (level 2) and object 2, which holds the cube
+    # again (level 3); the cube, counted once, was not walked again, and its depth below object 2 was missed.
+    path = tmp_path / "shared.3mf"
+    files.write_3mf(path, [files.cube_object(1), files.components_object(2, [(1, 0.0)]),
+                           files.components_object(3, [(1, 0.0), (2, 2.0)])], [(3, 0.0)])
+    with pytest.raises(MeshFormatError, match="nested more than 2 levels"):
+        massprops.mass_properties(path, max_depth=2)
+    _volume_is(path, Fraction(2, 10 ** 9), max_depth=3)
+    dae = tmp_path / "shared.dae"
+    files.collada_graph(str(dae), 1)                 # top -> n1 -> n0 (3 levels), and trimesh's node0 (1)
+    text = dae.read_text().replace('<node id="top"><instance_node url="#n1"/>',
+                                   '<node id="top"><instance_node url="#n0"/><instance_node url="#n1"/>')
+    dae.write_text(text)
+    with pytest.raises(MeshFormatError, match="nested more than 2 levels"):
+        massprops.mass_properties(dae, max_depth=2)
+    _volume_is(dae, 1, max_depth=3)
+
+
 def test_a_3mf_component_cycle_is_refused(tmp_path):
     path = tmp_path / "cycle.3mf"
     files.write_3mf(path, [files.components_object(1, [(2, 0.0)]), files.components_object(2, [(1, 0.0)])],

@@ -127,28 +127,37 @@ def check_instances(path, max_instances=None, max_depth=None):
         for top in scene:
             if _localname(top) != "node":
                 continue
-            total += _count(top, children, counted, max_instances, max_depth, path)
+            total += _count(top, children, counted, max_instances, max_depth, path)[0]
             check_totals(total, 0, max_instances, path, "geometries", partial=True)
 
 
 def _count(top, children, counted, max_instances, max_depth, path):
-    """Geometries placed under ``top`` (memoized in ``counted`` by element), refusing cycles and depth."""
+    """``(geometries, levels)`` under ``top``, memoized in ``counted`` by element; refusing cycles and depth.
+
+    A node met again is not walked again: its levels, below the path that meets it, are checked instead.
+    """
     if id(top) in counted:
         return counted[id(top)]
-    stack, totals, on_path = [(top, children(top))], [0], {id(top)}
+    stack, totals, on_path = [(top, children(top))], [[0, 0]], {id(top)}
     while stack:
         node, rest = stack[-1]
         child = next(rest, None)
         if child is None:
             stack.pop()
             on_path.discard(id(node))
-            counted[id(node)] = done = totals.pop()
+            done, below = totals.pop()
+            counted[id(node)] = (done, below + 1)
             if totals:
-                totals[-1] += done
+                totals[-1][0] += done
+                totals[-1][1] = max(totals[-1][1], below + 1)
         elif child is _LEAF:
-            totals[-1] += 1
+            totals[-1][0] += 1
         elif id(child) in counted:
-            totals[-1] += counted[id(child)]
+            done, levels = counted[id(child)]
+            if len(stack) + levels > max_depth:
+                raise too_deep(max_depth, "nodes (counting <instance_node>)", path)
+            totals[-1][0] += done
+            totals[-1][1] = max(totals[-1][1], levels)
         elif id(child) in on_path:
             raise MeshFormatError(f"node {child.get('id')!r} instances itself (a cycle of <instance_node>)",
                                   path=path, fix="remove the <instance_node> that closes the cycle")
@@ -157,9 +166,9 @@ def _count(top, children, counted, max_instances, max_depth, path):
         else:
             on_path.add(id(child))
             stack.append((child, children(child)))
-            totals.append(0)
-        if totals and totals[-1] > max_instances:
-            check_totals(totals[-1], 0, max_instances, path, "geometries", partial=True)
+            totals.append([0, 0])
+        if totals and totals[-1][0] > max_instances:
+            check_totals(totals[-1][0], 0, max_instances, path, "geometries", partial=True)
     return counted[id(top)]
 
 

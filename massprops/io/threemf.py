@@ -188,7 +188,11 @@ class _Walk:
             elif child in on_path:
                 raise MeshFormatError(f"object {child[1]!r} contains itself through its components (a cycle)",
                                       path=self.path, fix="remove the component that closes the cycle")
-            elif child not in self.count:
+            elif child in self.count:
+                # Met before, maybe higher up: its own depth, below this path, counts here too.
+                if len(stack) + self.depth[child] > self.max_depth:
+                    raise too_deep(self.max_depth, "components", self.path)
+            else:
                 if len(stack) >= self.max_depth:
                     raise too_deep(self.max_depth, "components", self.path)
                 on_path.add(child)
