@@ -34,7 +34,8 @@ def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: 
                     mass: float | None = None, unit: str | None = None, pose: Pose | None = None, repair: bool = False,
                     only: str | Iterable[str] | None = None, density_field: str | None = None,
                     density_map: Mapping[str, float] | None = None, shell: float | None = None,
-                    max_unpacked: int | None = None, self_intersection: bool | None = None) -> Result:
+                    max_unpacked: int | None = None, max_instances: int | None = None,
+                    max_depth: int | None = None, self_intersection: bool | None = None) -> Result:
     """Mass properties of a solid, with a rigorous error bound on every number.
 
     Parameters
@@ -78,6 +79,10 @@ def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: 
     max_unpacked : int, optional
         Bytes an archive (3MF) may unpack to; default 100 times its size, at
         least 64 MiB.
+    max_instances, max_depth : int, optional
+        Meshes a 3MF or COLLADA file may place through its instance graph
+        (components, instanced nodes), and levels it may nest; default
+        100,000 and 100.  Counted before anything is expanded.
     self_intersection : bool, optional
         Find faces that cross or overlap and integrate the region of positive
         winding number (:mod:`massprops.mesh.arrangement`): None or True (the
@@ -117,7 +122,8 @@ def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: 
         return _scene_result(source, density=density, unit=unit, pose=pose, repair=repair, only=only)
     return compute.mass_properties(source, density=density, mass=mass, unit=unit, pose=pose, repair=repair,
                                    only=only, density_field=density_field, density_map=density_map, shell=shell,
-                                   max_unpacked=max_unpacked, self_intersection=self_intersection)
+                                   max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
+                                   self_intersection=self_intersection)
 
 
 def _is_trimesh_scene(source):

@@ -59,7 +59,8 @@ def order_for(only):
 
 
 def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, max_unpacked=None, self_intersection=None):
+                    density_field=None, density_map=None, shell=None, max_unpacked=None, max_instances=None, max_depth=None,
+                    self_intersection=None):
     """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
     The pipeline behind :func:`massprops.mass_properties` (which also takes
@@ -77,7 +78,7 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     if is_path(source):
         path = os.fsdecode(source)
         from .io import read
-        mesh = read(path, max_unpacked=max_unpacked)
+        mesh = read(path, max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth)
     else:
         mesh = as_mesh(source)
     unit, unit_note = _length_unit(mesh, unit)

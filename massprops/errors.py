@@ -37,7 +37,7 @@ __all__ = [
 # Flags: a bare placeholder means "turn it on" (repair=True / --repair).
 _FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env", "expand"})
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
-                     "max_unpacked", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
+                     "max_unpacked", "max_instances", "max_depth", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
                      "omega", "about", "rotate", "translate", "on_open", "mass_policy", "massless", "joints",
                      "geometry"})
 # Options whose keyword argument has another name and form: placeholder → (keyword spelling, option spelling).

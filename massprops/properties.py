@@ -9,6 +9,7 @@ off-diagonal elements are the tensor's own (``J_xy = −∫ x y dm``).
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from functools import cached_property
@@ -306,8 +307,15 @@ class MassProperties:
                 moments, length, rho, volume_s, rel_volume if mass is not None else 0.0)
         # Every value is a quotient of integers: finite, or an OverflowError (reported by from_moments).
         values = (volume, total, _quotient(*rho), surface_area)
-        if values[0] == 0.0:
-            raise MeshGeometryError("the results underflow double precision", path=path,
+        # Below the smallest normal double a value keeps fewer bits than its bound says (1e-319 has 9): refused.
+        small = [name for name, value in (("volume", volume), ("mass", total)) if abs(value) < sys.float_info.min]
+        if inertia is not None and float(np.max(np.abs(inertia))) < sys.float_info.min:
+            small.append("inertia")
+        if small:
+            said = small[0] if len(small) == 1 else f"{', '.join(small[:-1])} and {small[-1]}"
+            raise MeshGeometryError(f"the results underflow double precision: the {said} "
+                                    f"{'is' if len(small) == 1 else 'are'} below 2.2e-308, the smallest normal "
+                                    "double", path=path,
                                     fix="give the mesh in a smaller length unit (e.g. {unit}) or rescale it")
         bounds = ErrorBounds(volume=error_volume, mass=error_mass, center_of_mass=error_com,
                              inertia_com=error_inertia)

@@ -33,7 +33,7 @@ def _seeds(folder):
     mesh.export(folder / "ascii.stl", file_type="stl_ascii")
     for name, kind, extra in (("part.obj", "obj", {}), ("binary.ply", "ply", {}),
                               ("ascii.ply", "ply", {"encoding": "ascii"}), ("part.off", "off", {}),
-                              ("part.glb", "glb", {}), ("part.3mf", "3mf", {})):
+                              ("part.glb", "glb", {}), ("part.3mf", "3mf", {}), ("part.dae", "dae", {})):
         mesh.export(folder / name, file_type=kind, **extra)
     tetra = meshio.Mesh(_TETRA.vertices, [("tetra", np.array([[0, 1, 2, 3]]))])
     meshio.write(folder / "part.vtu", tetra)
@@ -73,7 +73,7 @@ def mutated(draw, data):
 
 
 @pytest.mark.parametrize("name", ["binary.stl", "ascii.stl", "part.obj", "binary.ply", "ascii.ply", "part.off",
-                                  "part.glb", "part.3mf", "part.vtu", "part.msh"])
+                                  "part.glb", "part.3mf", "part.dae", "part.vtu", "part.msh"])
 def test_mutated_files_give_a_result_or_a_massprops_error(seeds, tmp_path, name):
     @settings(max_examples=int(os.environ.get("FUZZ_N", "30")), deadline=None, database=None,
               suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])

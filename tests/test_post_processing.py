@@ -74,7 +74,10 @@ def fraction_post_processing(moments, *, density=None, mass=None, unit=None):
         return "overflow"
     except ZeroDivisionError:
         return "ZeroDivisionError"       # a subnormal volume sum that rounds to 0 after / 6
-    if values[0] == 0.0:
+    # Below the smallest normal double a result keeps fewer bits than its bound claims: refused.
+    tiny = 2.0 ** -1022
+    if abs(values[0]) < tiny or abs(values[1]) < tiny or (
+            inertia is not None and max(abs(x) for row in inertia for x in row) < tiny):
         return "underflow"
     return values, com, inertia, (error_volume, error_mass, error_com, error_inertia)
 

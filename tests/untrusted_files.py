@@ -84,13 +84,33 @@ def collada_graph(path, levels, *, cycle=False):
         f.write(text)
 
 
+def collada_shared(path, levels):
+    """Library nodes that each place the previous one twice, side by side: 2**levels disjoint unit cubes.
+
+    Node ``s{k}`` holds ``s{k-1}`` at x = 0 and at x = 2**k (``s0`` is the cube); the scene places ``s{levels}``.
+    """
+    collada_graph(path, 0)
+    text = open(path).read()
+    text = re.sub(r'\s*<node id="node0".*?</node>', "", text, count=1, flags=re.S)     # trimesh's own placement
+    library = "".join(f'<node id="s{k}"><node><instance_node url="#s{k - 1}"/></node><node><translate>{2 ** k} 0 0'
+                      f'</translate><instance_node url="#s{k - 1}"/></node></node>' for k in range(1, levels + 1))
+    text = text.replace('<node id="n0">', '<node id="s0">').replace("</library_nodes>", library + "</library_nodes>")
+    text = text.replace('<instance_node url="#n0"/></node>', f'<instance_node url="#s{levels}"/></node>', 1)
+    with open(path, "w") as f:
+        f.write(text)
+    return 2 ** levels
+
+
 GLTF_TYPES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 TETRA = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float32)     # volume 1/6
 TETRA_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.uint32)
 
 
-def write_glb(path, kind="VEC3", count=4):
-    """A GLB of the unit tetrahedron whose POSITION accessor says ``kind`` and ``count``."""
+def write_glb(path, kind="VEC3", count=4, placeholder=False):
+    """A GLB of the unit tetrahedron whose POSITION accessor says ``kind`` and ``count``.
+
+    With ``placeholder``, the accessor has no buffer view (zeros, meant to be filled by an extension).
+    """
     width = GLTF_TYPES[kind]
     positions = np.zeros(4 * width, dtype=np.float32)
     flat = TETRA.ravel()[:positions.size]
@@ -104,6 +124,8 @@ def write_glb(path, kind="VEC3", count=4):
                               {"bufferView": 1, "componentType": 5125, "count": 12, "type": "SCALAR"}],
                 "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
                 "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0}
+    if placeholder:
+        del document["accessors"][0]["bufferView"]
     text = json.dumps(document).encode()
     text += b" " * (-len(text) % 4)
     data += b"\0" * (-len(data) % 4)

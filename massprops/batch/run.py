@@ -55,6 +55,8 @@ class Settings:
     density_map: dict | None = None
     shell: float | None = None
     max_unpacked: int | None = None
+    max_instances: int | None = None
+    max_depth: int | None = None
     self_intersection: bool | None = None
     only: frozenset | None = None         # the quantities to compute (None: all); see massprops.compute.QUANTITIES
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
@@ -62,7 +64,10 @@ class Settings:
     def key(self):
         """A JSON-able description; a resumed report is reused only if this matches."""
         pose = self.pose or Pose()
-        return {"density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
+        # The graph limits only when given, so that reports written before they existed still resume.
+        limits = {name: value for name, value in (("max_instances", self.max_instances),
+                                                  ("max_depth", self.max_depth)) if value is not None}
+        return {**limits, "density": self.density, "mass": self.mass, "unit": self.unit, "repair": self.repair,
                 "density_field": self.density_field, "density_map": self.density_map, "shell": self.shell,
                 "max_unpacked": self.max_unpacked, "self_intersection": self.self_intersection,
                 **({"only": sorted(self.only)} if self.only is not None else {}),
@@ -147,7 +152,8 @@ def run_one(path, settings=Settings(), output_format="csv"):
         result = mass_properties(path, density=settings.density, mass=settings.mass, unit=settings.unit,
                                  pose=settings.pose, repair=settings.repair, density_field=settings.density_field,
                                  density_map=settings.density_map, shell=settings.shell,
-                                 max_unpacked=settings.max_unpacked, self_intersection=settings.self_intersection,
+                                 max_unpacked=settings.max_unpacked, max_instances=settings.max_instances,
+                                 max_depth=settings.max_depth, self_intersection=settings.self_intersection,
                                  only=settings.only)
         obj = report.result_dict(result, only=settings.only)
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)

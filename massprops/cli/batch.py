@@ -86,8 +86,10 @@ def _summary_line(summary):
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
+@options.graph_limit_options
 def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quiet, timeout, only, density, total_mass,
-          unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked):
+          unit, rotate, translate, density_field, density_map, shell, repair, self_intersection, max_unpacked,
+          max_instances, max_depth):
     """A report of the mass properties of every mesh PATH names, one row per file, sorted by path.
 
     PATH is a file, a directory (its mesh files; --recursive for sub-directories),
@@ -117,8 +119,8 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     pose = options.pose_from_options(rotate, translate)
     settings = batch_lib.Settings(density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                   density_field=density_field, density_map=density_map, shell=shell,
-                                  max_unpacked=max_unpacked, self_intersection=self_intersection, only=only,
-                                  option_style="cli")
+                                  max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
+                                  self_intersection=self_intersection, only=only, option_style="cli")
     summary = _run(batch_lib, files, settings, output, output_format, jobs, resume, scheduler, quiet,
                    timeout or None)
     if summary.text is not None:

@@ -204,6 +204,16 @@ def unpack_option(f):
                              "size, at least 64 MiB), e.g. 2G for a trusted large file.")(f)
 
 
+def graph_limit_options(f):
+    """--max-instances / --max-depth: how many meshes an instance graph (3MF, COLLADA) may place, how deep."""
+    f = click.option("--max-depth", type=click.IntRange(min=1), default=None, metavar="N",
+                     help="Deepest nesting of 3MF components or COLLADA nodes read (default 100).")(f)
+    f = click.option("--max-instances", type=click.IntRange(min=1), default=None, metavar="N",
+                     help="Most meshes a 3MF or COLLADA file may place through its components or instanced nodes "
+                          "(default 100000), e.g. 1000000 for a trusted large assembly.")(f)
+    return f
+
+
 def digits_option(f):
     """--digits: significant digits of the text output (default: those the error bound makes significant)."""
     return click.option("--digits", type=click.IntRange(1, 17), default=None, metavar="N",

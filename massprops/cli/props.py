@@ -21,10 +21,12 @@ from . import options
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
+@options.graph_limit_options
 @options.digits_option
 @options.format_option("text", "json", "jsonl", "csv")
 def props(files, density, total_mass, unit, rotate, translate, about, omega, only, check_trimesh, density_field,
-          density_map, shell, repair, self_intersection, max_unpacked, digits, output_format):
+          density_map, shell, repair, self_intersection, max_unpacked, max_instances, max_depth, digits,
+          output_format):
     """Mass properties of each closed mesh FILE (STL, OBJ, PLY, OFF, GLB; volume meshes via meshio).
 
     Volume, mass, center of mass, inertia about the center of mass, principal
@@ -43,7 +45,8 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                  only=wanted, density_field=density_field, density_map=density_map, shell=shell,
-                                 max_unpacked=max_unpacked, self_intersection=self_intersection)
+                                 max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
+                                 self_intersection=self_intersection)
         declared.append(result.properties.unit)
         extra = None
         if check_trimesh:

@@ -1,4 +1,4 @@
-"""``massprops scene SCENE``: mass properties of an assembly (TOML, GLB, glTF or 3MF)."""
+"""``massprops scene SCENE``: mass properties of an assembly (TOML, GLB, glTF, 3MF or COLLADA)."""
 
 from __future__ import annotations
 
@@ -19,16 +19,18 @@ from . import options
                      "for every part and the total (overrides the scene's [report] quantities and principal).")
 @options.repair_option
 @options.unpack_option
+@options.graph_limit_options
 @options.digits_option
 @options.format_option("text", "json", "jsonl", "csv")
 @click.option("--html", "html_path", type=click.Path(dir_okay=False), metavar="SCENE.html",
               help="Also write a self-contained web page: the assembly, each part's centre of mass, the total's "
                    "principal axes and equivalent box (needs plotly, the view extra).")
-def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_format, html_path):
+def scene(scene_file, density, unit, only, repair, max_unpacked, max_instances, max_depth, digits, output_format,
+          html_path):
     """Mass properties of each part of SCENE and of the whole assembly.
 
     SCENE is a .toml assembly (parts with meshes, densities and poses; frames;
-    a [report] section) or a .glb/.gltf/.3mf scene graph, where every node with
+    a [report] section) or a .glb/.gltf/.3mf/.dae scene graph, where every node with
     geometry is a part.  A mesh used by several parts is integrated once.  A
     part that cannot be computed stops the run with exit 1.
     """
@@ -38,14 +40,13 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
     from ..scene.report import scene_blocks, scene_dict, scene_text
 
     wanted = only
-    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, max_unpacked=max_unpacked,
-                             path=scene_file)
+    limits = {"max_unpacked": max_unpacked, "max_instances": max_instances, "max_depth": max_depth}
+    loaded = options.guarded(assembly.load_scene, scene_file, density=density, unit=unit, **limits, path=scene_file)
     if loaded is not None and wanted is not None:
         principal = frozenset({"total", "parts"}) if "principal" in wanted else frozenset()
         loaded = replace(loaded, report=replace(loaded.report, quantities=frozenset(wanted - {"principal"}),
                                                 principal=principal))
-    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, max_unpacked=max_unpacked,
-                                        path=scene_file)
+    result = loaded and options.guarded(assembly.compute_scene, loaded, repair=repair, **limits, path=scene_file)
     if result is None:
         options.exit_with(1)
     obj = scene_dict(result)
@@ -59,10 +60,10 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, digits, output_
         options.echo(report.to_csv(rows), nl=False)
     else:
         options.echo(scene_text(obj, digits=digits))
-    options.exit_with(bool(html_path) and not _html(loaded, result, obj, html_path, repair, max_unpacked))
+    options.exit_with(bool(html_path) and not _html(loaded, result, obj, html_path, repair, limits))
 
 
-def _html(loaded, result, obj, html_path, repair, max_unpacked):
+def _html(loaded, result, obj, html_path, repair, limits):
     """Write the scene's page; the picture needs every part's COM and the total's inertia, computed if not asked."""
     from ..compute import QUANTITIES
     from ..scene import assembly
@@ -74,8 +75,8 @@ def _html(loaded, result, obj, html_path, repair, max_unpacked):
             and "total" in request.principal):
         widened = replace(request, parts=True, total=True, quantities=frozenset(QUANTITIES),
                           principal=request.principal | {"total"})
-        result = options.guarded(assembly.compute_scene, replace(loaded, report=widened), repair=repair,
-                                 max_unpacked=max_unpacked, path=loaded.path)
+        result = options.guarded(assembly.compute_scene, replace(loaded, report=widened), repair=repair, **limits,
+                                 path=loaded.path)
         if result is None:
             return False
         obj = scene_dict(result)

@@ -12,6 +12,15 @@ reference inside the part leaves few faces whose plane passes near it, and
 little cancellation — else a point of the box that is provably exact for any
 coordinates in it (:func:`_reference_coordinate`).  The scale ``2**scale_exp``
 is the smallest power of two at least the largest extent.
+
+The range a part must lie in: in the frame, its box's volume (the product
+of its extents over ``2**(3 scale_exp)``) at least 2**-900, since the
+kernel's underflow allowance is 2**-1000 per face (:func:`frame_of`), so
+that extents of 1e200 and 1e-100 in one part are refused naming them rather
+than integrated as "zero volume"; and, for a solid whose shells are compared
+in mesh units, its box's volume between 2**-1000 and 2**1023 mesh units³
+(about 1e-301 to 9e307, :func:`check_box_range`).  A part flat along an axis
+(an extent of zero) is not refused: it is flat.
 """
 
 from __future__ import annotations
@@ -22,7 +31,45 @@ from typing import NamedTuple
 from ..errors import MeshGeometryError
 from . import _core
 
-__all__ = ["reference_frame", "Frame", "frame_of"]
+__all__ = ["reference_frame", "Frame", "frame_of", "check_box_range"]
+
+
+_LOG2_BOX = (-1000.0, 1023.0)      # log2 of the box volume, mesh units³
+_LOG2_SCALED_BOX = -900.0           # log2 of the box volume in the frame (extents over 2**scale_exp)
+
+
+def _box_text(extents):
+    """``(log2 of the box volume, "X by Y by Z", the volume as text such as "1e+924")``."""
+    log_box = sum(math.log2(e) for e in extents)
+    decimal = log_box * math.log10(2)
+    return log_box, " by ".join(f"{e:.3g}" for e in extents), f"{10 ** (decimal % 1):.2g}e{math.floor(decimal):+d}"
+
+
+def check_box_range(extents):
+    """Refuse a box (its three extents, mesh units) whose volume in mesh units³ is outside 2**-1000 to 2**1023."""
+    if not all(0 < e < math.inf for e in extents):
+        return                                  # flat, or non-finite (refused where found)
+    log_box, shown, volume = _box_text(extents)
+    if log_box < _LOG2_BOX[0]:
+        raise MeshGeometryError(f"the part is too small for double precision (its volume would underflow): its "
+                                f"box is {shown} mesh units, a volume of at most {volume}, below 1e-301 (2**-1000)",
+                                fix="export the mesh in a smaller length unit (larger numbers)")
+    if log_box > _LOG2_BOX[1]:
+        raise MeshGeometryError(f"the part is too large for double precision (its volume would overflow): its "
+                                f"box is {shown} mesh units, a volume up to {volume}, above 9e+307 (2**1023)",
+                                fix="export the mesh in a larger length unit (smaller numbers)")
+
+
+def _check_scaled_range(extents, scale_exp):
+    """Refuse a part whose box, in the frame, is too small a fraction of its largest extent cubed."""
+    if not all(e > 0 for e in extents):
+        return
+    log_box, shown, _ = _box_text(extents)
+    if log_box - 3 * scale_exp < _LOG2_SCALED_BOX:
+        raise MeshGeometryError(f"the part's extents span too many orders of magnitude for double precision: its "
+                                f"box is {shown} mesh units, a volume below 2**-900 of its largest extent cubed",
+                                fix="check the file for a stray vertex far from the part; a part this thin cannot "
+                                    "be integrated")
 
 
 def _ceil_log2(x):
@@ -84,6 +131,7 @@ def frame_of(vertices):
         exact = _core.shift_is_exact(vertices, centre)
         reference = [c if ok else r for c, r, ok in zip(centre, reference, exact)]
     scale_exp = _ceil_log2(largest) if largest > 0 else 0
+    _check_scaled_range([hi - lo for lo, hi in zip(low, high)], scale_exp)
     radius = max(max(abs(hi - r), abs(lo - r)) for lo, hi, r in zip(low, high, reference))
     return Frame(tuple(reference), scale_exp, math.ldexp(radius, -scale_exp))
 

@@ -13,6 +13,10 @@
   that is more, unless the caller sets ``max_unpacked`` (bytes).  The sizes
   are the ones the archive declares; Python's zipfile never inflates a member
   beyond its declared size, so the check bounds what a reader can allocate.
+* An **instance graph** (3MF components, COLLADA ``<instance_node>``) may
+  place at most :data:`MAX_INSTANCES` meshes and nest :data:`MAX_DEPTH`
+  levels, unless the caller sets ``max_instances`` / ``max_depth``
+  (:func:`graph_limits`); both are counted before anything is expanded.
 """
 
 from __future__ import annotations
@@ -22,11 +26,13 @@ import stat
 
 from ..errors import MeshFormatError, MeshReadError, OptionError, option
 
-__all__ = ["check_input", "check_no_holes", "check_archive", "unpack_limit", "file_size_text",
-           "UNPACK_RATIO", "UNPACK_FLOOR"]
+__all__ = ["check_input", "check_no_holes", "check_archive", "unpack_limit", "file_size_text", "graph_limits",
+           "UNPACK_RATIO", "UNPACK_FLOOR", "MAX_INSTANCES", "MAX_DEPTH"]
 
 UNPACK_RATIO = 100          # measured on 3MF exports: 5x to 7x; zip bombs: 1000x and more
 UNPACK_FLOOR = 64 << 20
+MAX_INSTANCES = 100_000     # meshes an instance graph places, counting every path through it
+MAX_DEPTH = 100             # levels of nested components or nodes; exporters write 2 to 10
 
 _KINDS = ((stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -92,6 +98,24 @@ def unpack_limit(packed_size, max_unpacked=None):
     if isinstance(max_unpacked, bool) or not isinstance(max_unpacked, int) or max_unpacked <= 0:
         raise OptionError(f"{option('max_unpacked')} must be a positive number of bytes, got {max_unpacked!r}")
     return max_unpacked
+
+
+def graph_limits(max_instances=None, max_depth=None):
+    """``(instances, depth)`` an instance graph may place and nest: the values given, else the defaults.
+
+    Raises
+    ------
+    OptionError
+        A value that is not a positive whole number.
+    """
+    limits = []
+    for name, value, default in (("max_instances", max_instances, MAX_INSTANCES), ("max_depth", max_depth, MAX_DEPTH)):
+        if value is None:
+            value = default
+        elif isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            raise OptionError(f"{option(name)} must be a positive whole number, got {value!r}")
+        limits.append(value)
+    return tuple(limits)
 
 
 def check_archive(path, info, max_unpacked=None):

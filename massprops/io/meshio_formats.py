@@ -5,6 +5,15 @@ A file with volume cells becomes a :class:`massprops.mesh.volume.VolumeMesh`
 with surface cells only becomes a :class:`massprops.mesh.surface.TriangleMesh`.
 Higher-order cells are integrated with straight edges through their corner
 nodes (meshio lists corners first), and a warning says so.
+
+A compressed VTU (zlib or LZMA blocks) may inflate to at most what an
+archive may unpack to (:func:`massprops.io.inputs.unpack_limit`): meshio
+inflates every block whole, so its decompressors are bounded while it reads.
+A Gmsh file's ``$Nodes`` and ``$Elements`` counts are checked against its
+size first (:func:`check_gmsh_counts`): meshio allocates arrays of the
+declared size before it reads them; and its node numbers are bounded as it
+reads them (meshio allocates a table as long as the largest node number: a
+150-byte file numbering a node 2,000,000,000 took 8 GB).
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ import numpy as np
 from ..errors import MeshFormatError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
+from .inputs import file_size_text, unpack_limit
 from .registry import register_format
 
 __all__ = ["read", "EXTENSIONS"]
@@ -52,11 +62,91 @@ def _load(path):
         raise MeshFormatError("reading this format needs meshio", path=path, fix="pip install meshio") from None
     with _VTK_CELLS_SEEN:
         hooked, dropped = _hook_vtk_cells()
+        inflating = _hook_decompression(path) + _hook_gmsh_tags(path)
         try:
             return third_party(path, "meshio", meshio.read, path), dropped
         finally:
             for module, original in hooked:
                 module.vtk_cells_from_data = original
+            for module, name, original in inflating:
+                setattr(module, name, original)
+
+
+class _Bounded:
+    """A stand-in for the ``zlib`` or ``lzma`` module whose ``decompress`` stops at a shared budget of bytes."""
+
+    def __init__(self, module, budget, path):
+        self.module, self.budget, self.path = module, budget, path
+
+    def __getattr__(self, name):
+        return getattr(self.module, name)
+
+    def decompress(self, data, *args, **kwargs):
+        inflater = self.module.decompressobj() if hasattr(self.module, "decompressobj") else \
+            self.module.LZMADecompressor()
+        limit = self.budget[0]
+        out = inflater.decompress(data, limit + 1)
+        if len(out) > limit:
+            total = self.budget[1]
+            raise MeshFormatError(f"the compressed data inflate to more than {file_size_text(total)}, the limit for "
+                                  f"a file of its size", path=self.path,
+                                  fix="the file is damaged or hostile; export it again (or uncompressed)")
+        self.budget[0] -= len(out)
+        return out
+
+
+_GMSH_TAG_READERS = (("meshio.gmsh._gmsh22", "_read_cells", 2), ("meshio.gmsh._gmsh40", "_read_elements", 1),
+                     ("meshio.gmsh._gmsh41", "_read_elements", 1))
+
+
+def _hook_gmsh_tags(path):
+    """Refuse node numbers whose table (8 bytes a number up to the largest) exceeds the archive limit.
+
+    Returns ``[(module, name, original)]``.
+    """
+    import importlib
+    import os
+    largest = unpack_limit(os.path.getsize(path)) // 8
+    hooked = []
+    for module_name, name, position in _GMSH_TAG_READERS:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError:  # pragma: no cover - another meshio layout
+            continue
+        original = getattr(module, name, None)
+        if original is None:  # pragma: no cover
+            continue
+
+        def bounded(*args, original=original, position=position, **kwargs):
+            tags = np.asarray(args[position]) if len(args) > position else np.zeros(0)
+            if tags.size and int(tags.max()) > largest:
+                raise MeshFormatError(f"the Gmsh file numbers a node {int(tags.max())}, more than {largest} (the "
+                                      "most a file of its size may number)", path=path,
+                                      fix="renumber the nodes (gmsh -renumber), or export the mesh again")
+            return original(*args, **kwargs)
+
+        setattr(module, name, bounded)
+        hooked.append((module, name, original))
+    return hooked
+
+
+def _hook_decompression(path):
+    """Bound the zlib and LZMA blocks meshio's VTU reader inflates; returns ``[(module, name, original)]``."""
+    import importlib
+    import os
+    try:
+        module = importlib.import_module("meshio.vtu._vtu")
+    except ImportError:  # pragma: no cover - another meshio layout
+        return []
+    total = unpack_limit(os.path.getsize(path))
+    budget = [total, total]
+    hooked = []
+    for name in ("zlib", "lzma"):
+        original = getattr(module, name, None)
+        if original is not None:
+            setattr(module, name, _Bounded(original, budget, path))
+            hooked.append((module, name, original))
+    return hooked
 
 
 def _hook_vtk_cells():
@@ -109,6 +199,57 @@ def _voxels_as_hexahedra(connectivity, offsets, types):
     return connectivity
 
 
+_GMSH_SCAN = 1 << 20
+_GMSH_SECTIONS = ((b"$Nodes", "nodes", 8), (b"$Elements", "elements", 4))    # least bytes each takes
+
+
+def check_gmsh_counts(path):
+    """Refuse a Gmsh ``.msh`` whose ``$Nodes`` or ``$Elements`` header declares more than the file can hold.
+
+    Each node takes at least 8 bytes (``"1 0 0 0\\n"``), each element 4, in every
+    version and encoding; the sections are found by a scan in 1 MiB pieces.
+    """
+    import os
+    import struct
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        first = f.read(256).split(b"\n")
+        if len(first) < 2 or not first[0].strip().startswith(b"$MeshFormat"):
+            return
+        words = first[1].split()
+        try:
+            version, binary, data_size = float(words[0]), words[1] == b"1", int(words[2])
+        except (IndexError, ValueError):
+            return                                  # meshio says what is wrong
+        f.seek(0)
+        tail = b""
+        while True:
+            chunk = f.read(_GMSH_SCAN)
+            if not chunk:
+                return
+            data = tail + chunk
+            for marker, what, least in _GMSH_SECTIONS:
+                at = data.find(b"\n" + marker + b"\n")
+                if at < 0 or (len(data) - at < 64 and len(chunk) == _GMSH_SCAN):
+                    continue                        # none here, or its header is in the next piece
+                body = data[at + len(marker) + 2:]
+                if version >= 4 and binary:
+                    if len(body) < 2 * data_size or data_size not in (4, 8):
+                        continue
+                    count = struct.unpack_from("<QQ" if data_size == 8 else "<II", body)[1]
+                else:
+                    numbers = body.split(b"\n", 1)[0].split()
+                    try:
+                        count = int(numbers[1] if version >= 4 else numbers[0])
+                    except (IndexError, ValueError):
+                        continue
+                if count * least > size:
+                    raise MeshFormatError(f"the Gmsh file declares {count} {what}, more than its "
+                                          f"{file_size_text(size)} can hold", path=path,
+                                          fix="the file is truncated or its header is wrong; export it again")
+            tail = data[-(64 + 16):]
+
+
 def _refuse_dropped(dropped, path):
     if dropped:
         said = ", ".join(f"{count} of VTK type {kind} ({_VTK_NAMES.get(kind, 'not a VTK cell type')})"
@@ -139,6 +280,8 @@ def read(path):
 
     from ..mesh.volume import VolumeMesh
 
+    if os.path.splitext(path)[1].lower() == ".msh":
+        check_gmsh_counts(path)
     mesh, dropped = _load(path)
     _refuse_dropped(dropped, path)
     points = np.asarray(mesh.points, dtype=np.float64)

@@ -37,13 +37,16 @@ def read_mujoco(path):
     if size < _COUNTS:
         raise MeshFormatError(f"too short for a MuJoCo .msh ({size} bytes; the counts alone take 16) and not a "
                               "Gmsh file", path=path, fix="re-export the mesh")
-    data = np.fromfile(path, dtype="<u1")
-    nvertex, nnormal, ntexcoord, nface = (int(v) for v in data[:_COUNTS].view("<i4"))
+    with open(path, "rb") as f:
+        head = f.read(_COUNTS)
+    nvertex, nnormal, ntexcoord, nface = (int(v) for v in np.frombuffer(head, dtype="<i4"))
     expected = _COUNTS + 4 * (3 * nvertex + 3 * nnormal + 2 * ntexcoord + 3 * nface)
+    # The counts are checked against the file's size before the rest is read.
     if min(nvertex, nnormal, ntexcoord, nface) < 0 or expected != size:
         raise MeshFormatError(f"not a MuJoCo binary .msh (counts {nvertex}, {nnormal}, {ntexcoord}, {nface} call "
                               f"for {expected} bytes, the file has {size}) nor a Gmsh file", path=path,
                               fix="re-export the mesh, or convert it to STL")
+    data = np.fromfile(path, dtype="<u1", count=size)
     if nface == 0:
         raise MeshFormatError("the MuJoCo .msh has no faces (MuJoCo would use the convex hull of its points)",
                               path=path, fix="export the mesh with its faces")

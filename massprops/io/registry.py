@@ -1,7 +1,9 @@
 """The reader registry: which reader takes a file, by extension.
 
 Reader modules register ``read(path) -> mesh`` for their extensions with
-:func:`register_format`; :func:`read` picks the reader by extension.
+:func:`register_format`; :func:`read` picks the reader by extension.  A
+reader of instance graphs (3MF, COLLADA) registers with ``graph=True`` and is
+called ``read(path, max_instances=N, max_depth=N)``.
 """
 
 from __future__ import annotations
@@ -9,17 +11,27 @@ from __future__ import annotations
 import os
 
 from ..errors import MeshFormatError, MeshReadError
-from .inputs import check_archive, check_input, check_no_holes
+from .inputs import check_archive, check_input, check_no_holes, graph_limits
 
 __all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIONS", "UNSUPPORTED"]
 
 _READERS = {}
+_GRAPH_READERS = set()
 
 
-def register_format(name, extensions, reader):
-    """Register ``reader(path) -> mesh`` for file names ending in any of ``extensions``."""
+def register_format(name, extensions, reader, *, graph=False):
+    """Register ``reader(path) -> mesh`` for file names ending in any of ``extensions``.
+
+    With ``graph``, the reader walks an instance graph and takes the keywords
+    ``max_instances`` and ``max_depth`` (positive integers, see
+    :func:`massprops.io.inputs.graph_limits`).
+    """
     for ext in extensions:
         _READERS[ext.lower()] = (name, reader)
+        if graph:
+            _GRAPH_READERS.add(reader)
+        else:
+            _GRAPH_READERS.discard(reader)
 
 
 def _extension(path):
@@ -84,7 +96,7 @@ def check_mesh_file(path, *, max_unpacked=None):
     return found
 
 
-def read(path, *, max_unpacked=None):
+def read(path, *, max_unpacked=None, max_instances=None, max_depth=None):
     """Read a mesh file into a :class:`massprops.mesh.surface.TriangleMesh` (or a volume mesh).
 
     Parameters
@@ -92,6 +104,9 @@ def read(path, *, max_unpacked=None):
     max_unpacked : int, optional
         Bytes an archive (3MF) may unpack to; default: 100 times its size, at
         least 64 MiB (:func:`massprops.io.inputs.unpack_limit`).
+    max_instances, max_depth : int, optional
+        Meshes an instance graph (3MF components, COLLADA nodes) may place, and
+        levels it may nest; default 100,000 and 100.
 
     Raises
     ------
@@ -101,8 +116,11 @@ def read(path, *, max_unpacked=None):
         Unknown extension, or contents that are not a mesh of that format.
     """
     path = os.fspath(path)
+    instances, depth = graph_limits(max_instances, max_depth)
     _, reader = check_mesh_file(path, max_unpacked=max_unpacked)
     try:
+        if reader in _GRAPH_READERS:
+            return reader(path, max_instances=instances, max_depth=depth)
         return reader(path)
     except (MeshFormatError, MeshReadError):
         raise

@@ -8,9 +8,11 @@ into compact arrays, elements freed as they are read), so memory stays a
 small multiple of the mesh's own size.
 
 Before anything is expanded, the graph is checked: a component cycle is
-refused, and so is a graph deeper than :data:`MAX_DEPTH` levels or one that
-places more than :data:`MAX_INSTANCES` meshes or :data:`MAX_TRIANGLES`
-triangles in all (counted per object, once, from the bottom up).
+refused, and so is a graph deeper than ``max_depth`` levels or one that
+places more than ``max_instances`` meshes (defaults
+:data:`massprops.io.inputs.MAX_DEPTH` and ``MAX_INSTANCES``) or
+:data:`massprops.io.graph.MAX_TRIANGLES` triangles in all (counted per
+object, once, from the bottom up).
 
 Transforms are the specification's: ``m00 m01 m02 m10 ... m32``, a point
 (row vector) maps to ``[x y z 1] · M``, so in column form ``x ↦ Lᵀ x + t``
@@ -22,38 +24,20 @@ from __future__ import annotations
 import posixpath
 import zipfile
 from array import array
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import MeshFormatError, reason
-from ..mesh.surface import TriangleMesh
+from .graph import Graph, check_totals, placed_mesh, too_deep
+from .inputs import graph_limits
 from .registry import register_format
 
-__all__ = ["read", "read_graph", "Graph", "MAX_INSTANCES", "MAX_DEPTH", "MAX_TRIANGLES"]
-
-MAX_INSTANCES = 100_000          # meshes placed, counting every path through the component graph
-MAX_DEPTH = 100                  # levels of components; exporters write 2 or 3
-MAX_TRIANGLES = 50_000_000       # triangles once every instance is placed
+__all__ = ["read", "read_graph", "Graph"]
 
 # 3MF's units (the specification's names) as massprops' unit names.
 UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
 _ROOT = "/3D/3dmodel.model"
 _FIX = "check that the file is a complete 3MF export"
-
-
-@dataclass(frozen=True)
-class Graph:
-    """A 3MF's meshes and where the build places them.
-
-    ``meshes``: ``{key: (vertices (n, 3) float64, faces (m, 3) int64)}``, each
-    object's own coordinates; ``instances``: ``[(key, matrix (4, 4))]``, one per
-    placed mesh, ``x_world = M[:3, :3] x + M[:3, 3]``; ``unit``: the file's unit name.
-    """
-
-    unit: str
-    meshes: dict
-    instances: list
 
 
 def _local(tag):
@@ -134,10 +118,10 @@ class _Part:
             target = next((v for k, v in attrib.items() if _local(k) == "path"), None) or self.name
             self.build.append((target, attrib.get("objectid"), _transform(attrib.get("transform"), self.path,
                                                                            "a build <item>")))
+        # Each element is freed once read, and its read siblings with it: the tree never holds the mesh.
         element.clear()
-        if tag in ("object", "item"):
-            while element.getprevious() is not None:
-                del element.getparent()[0]
+        while element.getprevious() is not None:
+            del element.getparent()[0]
 
     def _object(self, ident):
         if ident is None:
@@ -179,8 +163,8 @@ def _root_part(archive):
 class _Walk:
     """Counts, depth and cycles of the component graph, each object once (no expansion)."""
 
-    def __init__(self, parts, path):
-        self.parts, self.path = parts, path
+    def __init__(self, parts, path, max_depth):
+        self.parts, self.path, self.max_depth = parts, path, max_depth
         self.count, self.triangles, self.depth = {}, {}, {}
 
     def object(self, key):
@@ -204,10 +188,13 @@ class _Walk:
             elif child in on_path:
                 raise MeshFormatError(f"object {child[1]!r} contains itself through its components (a cycle)",
                                       path=self.path, fix="remove the component that closes the cycle")
-            elif child not in self.count:
-                if len(stack) >= MAX_DEPTH:
-                    raise MeshFormatError(f"the components are nested more than {MAX_DEPTH} levels deep",
-                                          path=self.path, fix="flatten the assembly's components on export")
+            elif child in self.count:
+                # Met before, maybe higher up: its own depth, below this path, counts here too.
+                if len(stack) + self.depth[child] > self.max_depth:
+                    raise too_deep(self.max_depth, "components", self.path)
+            else:
+                if len(stack) >= self.max_depth:
+                    raise too_deep(self.max_depth, "components", self.path)
                 on_path.add(child)
                 stack.append((child, iter(self._children(child))))
 
@@ -240,8 +227,9 @@ def _unpacking_errors():
 _UNPACKING = _unpacking_errors()
 
 
-def read_graph(path):
-    """The :class:`Graph` of a 3MF file, checked before it is expanded."""
+def read_graph(path, *, max_instances=None, max_depth=None):
+    """The :class:`Graph` of a 3MF file, checked before it is expanded (limits: see :func:`graph_limits`)."""
+    max_instances, max_depth = graph_limits(max_instances, max_depth)
     try:
         archive = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError) as exc:
@@ -263,7 +251,7 @@ def read_graph(path):
                 raise MeshFormatError("the archive holds no 3D/3dmodel.model", path=path, fix=_FIX)
             top = parts(root)
             unit = top.unit or "millimeter"
-            walk = _Walk(lambda name: parts(name), path)
+            walk = _Walk(lambda name: parts(name), path, max_depth)
             items = [(("/" + posixpath.normpath(part).lstrip("/"), ident), matrix) for part, ident, matrix in top.build]
             for key, _ in items:
                 walk.measure(key)
@@ -272,19 +260,13 @@ def read_graph(path):
         except _UNPACKING as exc:
             raise MeshFormatError(f"cannot unpack the 3MF ({reason(exc, 'not a readable zip archive')})", path=path,
                                   fix=_FIX) from None
-    _check_totals(walk, items, path)
+    _check_totals(walk, items, path, max_instances)
     return Graph(unit, *_expanded(walk, items))
 
 
-def _check_totals(walk, items, path):
-    instances = sum(walk.count[key] for key, _ in items)
-    triangles = sum(walk.triangles[key] for key, _ in items)
-    if instances > MAX_INSTANCES:
-        raise MeshFormatError(f"the build places {instances} meshes through its components, more than "
-                              f"{MAX_INSTANCES}", path=path, fix="export fewer instances (or a merged mesh)")
-    if triangles > MAX_TRIANGLES:
-        raise MeshFormatError(f"the build places {triangles} triangles in all, more than {MAX_TRIANGLES}",
-                              path=path, fix="export fewer instances (or a simplified mesh)")
+def _check_totals(walk, items, path, max_instances):
+    check_totals(sum(walk.count[key] for key, _ in items), sum(walk.triangles[key] for key, _ in items),
+                 max_instances, path)
     if not items:
         raise MeshFormatError("the 3MF's build places no objects", path=path, fix="export the part as a build item")
 
@@ -306,24 +288,13 @@ def _expanded(walk, items):
     return meshes, instances
 
 
-def read(path):
+def read(path, *, max_instances=None, max_depth=None):
     """A 3MF's build as one triangle mesh (every instance placed), in the file's unit."""
-    graph = read_graph(path)
+    graph = read_graph(path, max_instances=max_instances, max_depth=max_depth)
     unit = UNITS.get(graph.unit.lower())
     if unit is None:
         raise MeshFormatError(f"unknown 3MF unit {graph.unit!r}", path=path, fix=f"use one of {', '.join(UNITS)}")
-    vertices, faces, offset = [], [], 0
-    for name, matrix in graph.instances:
-        local, triangles = graph.meshes[name]
-        identity = np.array_equal(matrix, np.eye(4))
-        with np.errstate(over="ignore", invalid="ignore"):
-            vertices.append(local if identity else local @ matrix[:3, :3].T + matrix[:3, 3])
-        faces.append(triangles + offset)
-        offset += local.shape[0]
-    if not offset or not sum(f.shape[0] for f in faces):
-        raise MeshFormatError("the file holds no triangles", path=path, fix="export the part as a closed surface")
-    return TriangleMesh.from_indexed(np.concatenate(vertices), np.concatenate(faces),
-                                     notes=(f"the file declares its length unit: {graph.unit}",), unit=unit)
+    return placed_mesh(graph, path, notes=(f"the file declares its length unit: {graph.unit}",), unit=unit)
 
 
-register_format("3mf", [".3mf"], read)
+register_format("3mf", [".3mf"], read, graph=True)

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import MeshFormatError, MeshReadError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
-from .inputs import check_input, file_size_text
+from .inputs import check_input, file_size_text, unpack_limit
 from .registry import register_format
 
 __all__ = ["load_trimesh", "read", "flattened", "check_ply_header", "check_gltf_resources"]
@@ -63,16 +63,23 @@ def _gltf_json(path):
     return document if isinstance(document, dict) else None
 
 
+_GLTF_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_GLTF_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+
+
 def check_gltf_resources(path):
     """Every file a glTF names (buffers, images) must be a regular file, and a buffer as long as declared.
 
     trimesh reads them whole: a named pipe beside the file would block it, a
-    short buffer be read past.
+    short buffer be read past.  An accessor with no buffer view is zeros
+    that trimesh allocates from its declared count alone, so those are
+    bounded like an archive's unpacked size (:func:`check_gltf_accessors`).
     """
     document = _gltf_json(path)
     if document is None:
         return
     folder = os.path.dirname(os.path.abspath(path))
+    data = os.path.getsize(path)
     for kind in ("buffers", "images"):
         entries = document.get(kind)
         for entry in entries if isinstance(entries, list) else []:
@@ -90,6 +97,33 @@ def check_gltf_resources(path):
             if kind == "buffers" and isinstance(declared, int) and declared > info.st_size:
                 raise MeshFormatError(f"buffer {uri!r} holds {info.st_size} bytes, the glTF says {declared}",
                                       path=path, fix="the buffer is truncated or not this glTF's; export again")
+            if kind == "buffers":
+                data += info.st_size
+    check_gltf_accessors(document, data, path)
+
+
+def check_gltf_accessors(document, data, path):
+    """Refuse accessors without a buffer view whose zeros would take more than ``data`` bytes could unpack to.
+
+    ``data``: the bytes of the file and the buffers it names.  Such accessors
+    are placeholders (for a compression extension, or sparse values); their
+    zeros are bounded as an archive's contents are (:func:`unpack_limit`).
+    """
+    accessors = document.get("accessors")
+    total, limit = 0, unpack_limit(data)
+    for index, accessor in enumerate(accessors if isinstance(accessors, list) else []):
+        if not isinstance(accessor, dict) or "bufferView" in accessor:
+            continue
+        count, width = accessor.get("count"), _GLTF_WIDTH.get(accessor.get("type"))
+        size = _GLTF_BYTES.get(accessor.get("componentType"))
+        if not isinstance(count, int) or width is None or size is None:
+            continue                                     # trimesh refuses it
+        total += max(0, count) * width * size
+        if total > limit:
+            raise MeshFormatError(f"accessor {index} holds no data but declares {count} {accessor.get('type')} "
+                                  f"items: {file_size_text(total)} of zeros from a file of "
+                                  f"{file_size_text(data)}, more than the limit of {file_size_text(limit)}",
+                                  path=path, fix="the file is damaged or hostile; export it again")
 
 
 def _ply_elements(header):

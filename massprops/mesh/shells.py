@@ -60,6 +60,12 @@ def solid_of(mesh, labels, n_shells, *, path=None, repair=False, self_intersecti
 def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=False, weights=None):
     """See :func:`solid_of` (which chooses ``check_self``)."""
     vertices, faces = mesh.vertices, mesh.faces
+    if vertices.shape[0]:
+        # Shell volumes are compared in mesh units³: they must not underflow or overflow there.
+        from ..core.frame import check_box_range
+        with np.errstate(over="ignore", invalid="ignore"):     # an extent past the largest double is refused later
+            extents = np.ptp(vertices, axis=0).tolist()
+        check_box_range(extents)
     repeated = weights is not None and bool(np.any(weights != 1))
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})

@@ -1,4 +1,4 @@
-"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF scene graph.
+"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF/COLLADA scene graph.
 
 :mod:`.model` says what a scene is, :mod:`.toml_file` and :mod:`.graph` read
 one, :mod:`.assembly` computes every part and the total, and :mod:`.report`

@@ -1,4 +1,4 @@
-"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF scene graph.
+"""Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF/COLLADA scene graph.
 
 Each part ``i`` has a pose ``(A_i, r_i)`` (see :mod:`massprops.frames`).  A mesh
 used by several parts is read and integrated once; every instance reuses its
@@ -9,7 +9,7 @@ large, nearly equal numbers are subtracted.
 
 Scene files are read by :mod:`massprops.scene.toml_file` (the TOML format, with
 compact lists of many instances held as arrays) and :mod:`massprops.scene.graph`
-(GLB/glTF/3MF, with exact non-uniform scale).
+(GLB/glTF/3MF/COLLADA, with exact non-uniform scale).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from .model import Scene
 
 __all__ = ["SceneResult", "load_scene", "compute_scene", "combine_parts"]
 
-SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf")
+SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf", ".dae")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,32 +65,35 @@ class SceneResult:
     elapsed_s: float
 
 
-def load_scene(path, *, density=None, unit=None, max_unpacked=None):
-    """Read a scene: ``.toml`` (massprops's format) or a GLB/glTF/3MF scene graph.
+def load_scene(path, *, density=None, unit=None, max_unpacked=None, max_instances=None, max_depth=None):
+    """Read a scene: ``.toml`` (massprops's format) or a GLB/glTF/3MF/COLLADA scene graph.
 
     ``density`` is the default for parts that give none; ``unit`` overrides the
-    report's unit; ``max_unpacked`` is the size a 3MF may unpack to (see
-    :func:`massprops.io.read`).
+    report's unit; ``max_unpacked`` is the size a 3MF may unpack to,
+    ``max_instances`` and ``max_depth`` bound a 3MF's or COLLADA file's
+    instance graph (see :func:`massprops.io.read`).
     """
     from ..io.inputs import check_input
     path = os.fspath(path)
     check_input(path, what="scene file")
     if path.lower().endswith(SCENE_EXTENSIONS):
         from .graph import graph_scene
-        scene = graph_scene(path, density, max_unpacked=max_unpacked)
+        scene = graph_scene(path, density, max_unpacked=max_unpacked, max_instances=max_instances,
+                            max_depth=max_depth)
     elif path.lower().endswith(".toml"):
         from .toml_file import toml_scene
         scene = toml_scene(path, density)
     else:
         raise MeshFormatError("unknown scene format", path=path,
-                              fix="give a .toml scene or a .glb/.gltf/.3mf scene graph")
+                              fix="give a .toml scene or a .glb/.gltf/.3mf/.dae scene graph")
     return replace(scene, report=replace(scene.report, unit=unit)) if unit else scene
 
 
-def compute_scene(scene, *, repair=False, max_unpacked=None):
+def compute_scene(scene, *, repair=False, max_unpacked=None, max_instances=None, max_depth=None):
     """Mass properties of every part and of the assembly, computing only what the report asks.
 
-    ``max_unpacked``: the size an archive among the meshes may unpack to (see :func:`massprops.io.read`).
+    ``max_unpacked``: the size an archive among the meshes may unpack to;
+    ``max_instances``, ``max_depth``: the bounds of their instance graphs (see :func:`massprops.io.read`).
 
     Returns
     -------
@@ -99,7 +102,8 @@ def compute_scene(scene, *, repair=False, max_unpacked=None):
     start = time.perf_counter()
     request = scene.report
     order = request.order
-    records = _integrate_meshes(scene, order, repair, max_unpacked)
+    limits = {"max_unpacked": max_unpacked, "max_instances": max_instances, "max_depth": max_depth}
+    records = _integrate_meshes(scene, order, repair, limits)
     wanted = request.quantities | ({"principal"} if request.principal else set())
     cache, local, which = {}, [], []
     for part in scene.parts:
@@ -130,7 +134,7 @@ def compute_scene(scene, *, repair=False, max_unpacked=None):
                        time.perf_counter() - start)
 
 
-def _integrate_meshes(scene, order, repair, max_unpacked):
+def _integrate_meshes(scene, order, repair, limits):
     """Read each distinct mesh once and integrate each surface once; a failure names the first part using it.
 
     A volume mesh is only read here: its integrals depend on the part's cell
@@ -146,7 +150,7 @@ def _integrate_meshes(scene, order, repair, max_unpacked):
         path = source if isinstance(source, str) else part.mesh
         began = time.perf_counter()
         with _naming(part, path):
-            mesh = read(source, max_unpacked=max_unpacked) if isinstance(source, str) else source
+            mesh = read(source, **limits) if isinstance(source, str) else source
             moments, checks, warnings = None, {}, ()
             if isinstance(mesh, TriangleMesh):
                 moments, mesh, checks, warnings = checked_moments(mesh, path=path, order=order, repair=repair)

@@ -1,4 +1,4 @@
-"""GLB/glTF/3MF scene graphs as scenes: every node with geometry is a part.
+"""GLB/glTF/3MF/COLLADA scene graphs as scenes: every node with geometry is a part.
 
 A scene-graph node may also scale or shear its mesh (``x = L x' + t`` with a
 general ``L``).  ``L`` is split into a rotation and a stretch, ``L = A P``; the
@@ -23,16 +23,19 @@ __all__ = ["graph_scene", "scene_from_trimesh", "placement_poses", "stretched_mo
 
 
 
-def graph_scene(path, density, *, max_unpacked=None):
-    """Every node with geometry becomes a part with its world transform (instances share meshes)."""
+def graph_scene(path, density, *, max_unpacked=None, max_instances=None, max_depth=None):
+    """Every node with geometry becomes a part with its world transform (instances share meshes).
+
+    3MF and COLLADA graphs are walked by massprops (:mod:`massprops.io.graph`),
+    bounded by ``max_instances`` and ``max_depth``; glTF through trimesh.
+    """
+    from ..io.inputs import graph_limits
     from ..io.registry import check_mesh_file
     from ..io.trimesh_formats import load_trimesh
+    limits = dict(zip(("max_instances", "max_depth"), graph_limits(max_instances, max_depth)))
     check_mesh_file(path, max_unpacked=max_unpacked)
-    if str(path).lower().endswith(".3mf"):
-        return _scene_from_3mf(path, density)
-    if str(path).lower().endswith(".dae"):
-        from ..io.collada import check_instances
-        check_instances(path)
+    if str(path).lower().endswith((".3mf", ".dae")):
+        return _scene_from_graph(path, density, limits)
     loaded = load_trimesh(path)
     if not hasattr(loaded, "graph"):
         loaded = __import__("trimesh").Scene(loaded)
@@ -49,11 +52,16 @@ def scene_from_trimesh(loaded, name, density):
                    lambda key: (loaded.geometry[key].vertices, loaded.geometry[key].faces))
 
 
-def _scene_from_3mf(path, density):
-    """A 3MF's build as a scene: its component graph walked by massprops, each mesh object read once."""
-    from ..io.threemf import read_graph
-    graph = read_graph(path)
-    nodes = [f"object {key.rpartition('#')[2]} (instance {k + 1})" for k, (key, _) in enumerate(graph.instances)]
+def _scene_from_graph(path, density, limits):
+    """A 3MF's build or a COLLADA scene: its graph walked by massprops, each mesh read once."""
+    if str(path).lower().endswith(".3mf"):
+        from ..io.threemf import read_graph
+        graph = read_graph(path, **limits)
+        nodes = [f"object {key.rpartition('#')[2]} (instance {k + 1})" for k, (key, _) in enumerate(graph.instances)]
+    else:
+        from ..io.collada import read_graph
+        graph = read_graph(path, **limits)
+        nodes = [f"{key} (instance {k + 1})" for k, (key, _) in enumerate(graph.instances)]
     return _placed(path, density, nodes, [(matrix, key) for key, matrix in graph.instances], graph.meshes.get)
 
 
