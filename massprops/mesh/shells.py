@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import MeshGeometryError
 from .solid import Solid, shell_six_volumes, swept_volume
 
-__all__ = ["solid_of", "resolve_shells", "joined_groups", "with_exact"]
+__all__ = ["solid_of", "resolve_shells", "joined_groups"]
 
 
 def _geometry(vertices):

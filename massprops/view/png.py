@@ -9,8 +9,6 @@ drawn over them.
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..errors import MassPropsError
 
 __all__ = ["write_png", "VIEWS"]

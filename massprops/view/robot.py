@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import MassPropsError
 from .geometry import capsule_mesh, cone_mesh, cylinder_mesh, decimated, ellipsoid_mesh
-from .picture import (DISPLAY_TRIANGLES, LINK_COLORS, STATUS_COLORS, Lines, Marker, Picture, Row, Surface,
+from .picture import (DISPLAY_TRIANGLES, LINK_COLORS, STATUS_COLORS, Marker, Picture, Row, Surface,
                       glyph_lines)
 
 __all__ = ["robot_picture", "declared_principal"]
