@@ -50,6 +50,7 @@ class RobotSettings:
     allow_env: bool = False               # xacro's $(env ...), $(optenv ...) and $(cwd) may read the environment
     roots: tuple = ()                     # folders the model may read from besides its own package (--root)
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
+    tolerance: float = 1e-9               # relative bound asked of a link's union of overlapping primitives
 
     @property
     def policy(self):
@@ -79,7 +80,7 @@ def prepare(path, settings):
                         roots=tuple(settings.roots))
     model = load_model(path, resolver, xacro_args=dict(settings.xacro_args), allow_env=settings.allow_env)
     mass = MassSettings(settings.policy, settings.density, settings.geometry, settings.repair,
-                        parse_on_open(settings.on_open), config)
+                        parse_on_open(settings.on_open), config, tolerance=settings.tolerance)
     values = parse_joint_values(settings.joints, model)
     return Prepared(model, resolver, mass, config, values, link_poses(model, values))
 
