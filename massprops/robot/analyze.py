@@ -310,7 +310,9 @@ def _mismatch(model, link, computed, prepared, settings):
     if not comparison.mismatched:
         return "ok", "", [], [], comparison.as_dict()
     rescaled = _rescaled(model, link, prepared, declared.mass.value)
-    names, details = diagnose(declared, props, comparison, settings.tolerances, rescaled=rescaled)
+    from .geometry import enclosing_points
+    names, details = diagnose(declared, props, comparison, settings.tolerances, rescaled=rescaled,
+                              enclosure=enclosing_points(computed.results))
     parts = []
     if "center_of_mass" in comparison.mismatched:
         parts.append(f"center of mass {comparison.com_distance:.3g} m off ({comparison.com_distance_relative:.1%} "
