@@ -11,7 +11,7 @@ import pytest
 
 from massprops.frames import Pose
 from massprops.robot.links import MassSettings, link_properties
-from massprops.robot.model import Geometry, Link, RobotModel
+from massprops.robot.model import Geometry, Link, RobotModel, rpy_rotation
 
 U = 2.0 ** -53
 PI = F(math.pi)            # math.pi is within 1.3e-16 relative of π: the comparisons allow 4u more
@@ -163,9 +163,12 @@ def test_a_capsule_through_a_box_face():
     assert any("overlap by" in w and "cm³" in w for w in link.warnings)
 
 
-def test_crossing_cylinders_are_bounded_honestly_when_the_refinement_stops():
+def test_crossing_cylinders_are_bounded_honestly_when_the_refinement_stops(monkeypatch):
     # Two cylinders of radius r crossing at right angles (a Steinmetz solid 16r³/3 in common): no closed form
-    # is used, the grid stops at its budget, and the bound still holds and says so.
+    # is used, the grid stops at its budget (made small here to keep the test fast), and the bound still holds
+    # and says so.
+    import massprops.robot.curved as curved
+    monkeypatch.setattr(curved, "_CELL_BUDGET", 300_000)
     r = 0.2
     a = Geometry("cylinder", "collision", "a", size={"radius": r, "length": 1.0})
     b = Geometry("cylinder", "collision", "b", pose=Pose(rotation=np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])),
@@ -173,9 +176,24 @@ def test_crossing_cylinders_are_bounded_honestly_when_the_refinement_stops():
     link = _link(a, b)
     union = 2 * math.pi * r * r - 16 * r ** 3 / 3
     assert abs(link.props.volume - union) <= link.props.error.volume
-    assert link.props.error.volume < 0.01 * union
+    assert link.props.error.volume < 0.05 * union
     assert any("not the 1e-09 asked" in w for w in link.warnings)
     # Asking for less stops sooner without the warning.
-    loose = _link(a, b, tolerance=0.05)
+    loose = _link(a, b, tolerance=0.2)
     assert abs(loose.props.volume - union) <= loose.props.error.volume
     assert not any("asked" in w for w in loose.warnings)
+
+
+def test_a_box_with_two_half_cylinders_along_its_edges_is_bounded_across():
+    # A quadruped's face: a box 0.11 × 0.14 × 0.18 with cylinders (r 0.09) along x centred on its faces
+    # y = ±0.07, which also overlap each other inside the box.  Three solids meet, all prisms along x: exact in
+    # x, refined across.  The union is the box plus two half cylinders: (0.14 · 0.18 + π 0.09²) · 0.11.
+    across = Pose(rpy_rotation((0, math.pi / 2, 0)))
+    box = Geometry("box", "collision", "b", size={"size": (0.11, 0.14, 0.18)})
+    cylinders = [Geometry("cylinder", "collision", f"c{k}", pose=Pose(across.rotation, translation=(0, y, 0)),
+                          size={"radius": 0.09, "length": 0.11}) for k, y in enumerate((0.07, -0.07))]
+    link = _link(box, *cylinders, tolerance=1e-3)
+    union = (0.14 * 0.18 + math.pi * 0.09 ** 2) * 0.11
+    assert abs(link.props.volume - union) <= link.props.error.volume + 4 * U * union
+    assert link.props.error.volume <= 1e-3 * union
+    assert link.props.center_of_mass == pytest.approx([0, 0, 0], abs=link.props.error.center_of_mass + 1e-15)

@@ -653,6 +653,9 @@ def _pair_excess(a, b, tolerance, budget):
             clip = _slab(rev, box)
             if clip is not None:
                 return revolution_raw(rev, clip), True, "through a box"
+    prism = _prism_axis([a, b])
+    if prism is not None:
+        return _prism_excess([a, b], prism[1], prism[0], tolerance, budget)
     return _octree_excess([a, b], tolerance, budget)
 
 
@@ -724,9 +727,10 @@ def _octree_excess(units, tolerance, budget):
             break
         # The undecided cells: the midpoint of [lo, hi], off by at most half the range.
         v_open, f_open, s_open = _cell_raw(centres, half, (lo + hi) / 2.0)
-        width = float(((hi - lo) / 2.0).sum()) * (2 * half) ** 3
         far = float(np.abs(centres).max()) + half
-        open_error = (width, width * far, width * far * far)
+        spread = (hi - lo) / 2.0 * (2 * half) ** 3
+        reach = np.abs(centres).max(axis=1) + half
+        open_error = (float(spread.sum()), float(spread @ reach), float(spread @ (reach * reach)))
         remaining = [open_error[0], open_error[1], open_error[2]]
         done = open_error[0] <= tolerance[0] and open_error[1] <= tolerance[1] and open_error[2] <= tolerance[2]
         if done or used + 8 * centres.shape[0] > budget:
@@ -745,6 +749,190 @@ def _octree_excess(units, tolerance, budget):
                 total.e_volume + rounding * absolute[0], total.e_first + rounding * absolute[1],
                 total.e_second + rounding * absolute[2])
     return total, False, ("spent" if spent else "refined")
+
+
+# -- prisms: cylinders and boxes along one direction -------------------------------------------
+
+def _prism_axis(units):
+    """``(d, [(member, column, turn)])`` when every member is a cylinder or a box with an axis along ``d``
+    (within 1e-9 rad), else None."""
+    members = [m for u in units for m in u.members]
+    if not all(m.kind in ("cylinder", "box") for m in members):
+        return None
+    first = members[0]
+    candidates = [first.axis] if first.kind == "cylinder" else list(first.rotation.T)
+    for d in candidates:
+        found = []
+        for m in members:
+            columns = [2] if m.kind == "cylinder" else [0, 1, 2]
+            turns = [min(float(np.linalg.norm(m.rotation[:, k] - d)), float(np.linalg.norm(m.rotation[:, k] + d)))
+                     for k in columns]
+            best = int(np.argmin(turns))
+            if turns[best] > 1e-9:
+                break
+            found.append((m, columns[best], turns[best]))
+        else:
+            return d / np.linalg.norm(d), found
+    return None
+
+
+@dataclass
+class _Section:
+    """A member's cross section in the prism frame: a disk or a rectangle, and its axial extent."""
+
+    unit: int
+    low: float
+    high: float
+    centre: np.ndarray            # (2,)
+    radius: float = 0.0           # a disk
+    axes: np.ndarray | None = None    # (2, 2) unit rows: a rectangle's axes
+    half: np.ndarray | None = None    # (2,) its half extents
+
+    def g(self, points):
+        d = points - self.centre
+        if self.axes is None:
+            return np.linalg.norm(d, axis=1) - self.radius
+        return (np.abs(d @ self.axes.T) - self.half).max(axis=1)
+
+    def reach(self):
+        return self.radius if self.axes is None else float(np.linalg.norm(self.half))
+
+
+def _prism_excess(units, found, d, tolerance, budget):
+    """The volume counted more than once by prisms along ``d``: exact axial slabs, a certified quadtree across."""
+    q = _frame(d)
+    origin = np.mean([m.translation for u in units for m in u.members], axis=0)
+    unit_of = {id(m): k for k, u in enumerate(units) for m in u.members}
+    sections, slack = [], 0.0
+    far = 0.0
+    for m, column, turn in found:
+        y = q.T @ (m.translation - origin)
+        dims = m.dims()
+        if m.kind == "cylinder":
+            r, h = dims
+            section = _Section(unit_of[id(m)], float(y[2] - h), float(y[2] + h), y[:2].copy(), radius=float(r))
+        else:
+            others = [k for k in range(3) if k != column]
+            axes = np.array([(q.T @ m.rotation[:, k])[:2] for k in others])
+            axes /= np.linalg.norm(axes, axis=1)[:, None]
+            h = float(dims[column])
+            section = _Section(unit_of[id(m)], float(y[2] - h), float(y[2] + h), y[:2].copy(), axes=axes,
+                               half=dims[others].copy())
+        sections.append(section)
+        # Modelled as an exact prism along d: moved by the turn and the rounding of its placement.
+        move = 1.6 * turn * m.reach() + 16 * _U * (float(np.abs(m.translation).max())
+                                                   + float(np.abs(origin).max()) + m.reach())
+        slack += 2 * move * m.props.surface_area * (1 + 1e-9)
+        far = max(far, float(np.linalg.norm(m.translation - origin)) + m.reach())
+    ends = sorted({s.low for s in sections} | {s.high for s in sections})
+    slabs = [(a, b) for a, b in zip(ends, ends[1:]) if b > a]
+    area_tolerance = tuple(t / max(1, len(slabs)) for t in tolerance)
+    totals = [0.0] * 10     # V, Fu, Fv, Fw, Suu, Suv, Svv, Suw, Svw, Sww
+    errors = [0.0, 0.0, 0.0]
+    spent = False
+    for a, b in slabs:
+        middle = (a + b) / 2
+        active = [s for s in sections if s.low <= middle <= s.high]
+        if len({s.unit for s in active}) < 2:
+            continue
+        length = b - a
+        wanted = (area_tolerance[0] / length, area_tolerance[1] / length, area_tolerance[2] / length)
+        moments, error, stopped = _quadtree_excess(active, wanted, budget // max(1, len(slabs)))
+        spent = spent or stopped
+        area, au, av, auu, auv, avv = moments
+        w1, w2 = (b * b - a * a) / 2, (b ** 3 - a ** 3) / 3
+        for k, value in enumerate((area * length, au * length, av * length, area * w1, auu * length, auv * length,
+                                   avv * length, au * w1, av * w1, area * w2)):
+            totals[k] += value
+        reach_w = max(abs(a), abs(b))
+        errors[0] += error[0] * length
+        errors[1] += max(error[1] * length, error[0] * length * reach_w)
+        errors[2] += max(error[2] * length, error[1] * length * reach_w, error[0] * length * reach_w * reach_w)
+    v = totals[0]
+    first_local = np.array(totals[1:4])
+    second_local = np.array([[totals[4], totals[5], totals[7]], [totals[5], totals[6], totals[8]],
+                             [totals[7], totals[8], totals[9]]])
+    first_q = q @ first_local
+    first = v * origin + first_q
+    second = q @ second_local @ q.T + np.outer(origin, first_q) + np.outer(first_q, origin) + v * np.outer(origin,
+                                                                                                           origin)
+    pr = float(np.abs(origin).max())
+    magnitude = float(np.abs(second_local).max()) + 2 * float(np.abs(first_local).max()) * pr + abs(v) * pr * pr
+    e_v = errors[0] + slack
+    e_first = errors[0] * pr + 2 * errors[1] + slack * (far + pr) + 16 * _U * (abs(v) * pr + float(
+        np.abs(first_local).max()))
+    e_second = 3 * errors[2] + 4 * errors[1] * pr + errors[0] * pr * pr + slack * (far + pr) ** 2 \
+        + 64 * _U * magnitude
+    raw = Raw(v, first, second, e_v * (1 + 1e-9), e_first * (1 + 1e-9), e_second * (1 + 1e-9))
+    return raw, False, ("spent" if spent else "refined")
+
+
+def _quadtree_excess(sections, tolerance, budget):
+    """2D moments ``(A, ∫u, ∫v, ∫u², ∫uv, ∫v²)`` of ``max(0, n − 1)`` over the cross section, n counting units;
+    and bounds ``(area, first, second)``, and whether the budget stopped it."""
+    units = sorted({s.unit for s in sections})
+    boxes = []
+    for k in units:
+        mine = [s for s in sections if s.unit == k]
+        boxes.append((np.min([s.centre - s.reach() for s in mine], axis=0),
+                      np.max([s.centre + s.reach() for s in mine], axis=0)))
+    low, high = np.full(2, np.inf), np.full(2, -np.inf)
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            lo, hi = np.maximum(boxes[i][0], boxes[j][0]), np.minimum(boxes[i][1], boxes[j][1])
+            if np.all(hi > lo):
+                low, high = np.minimum(low, lo), np.maximum(high, hi)
+    zero = (0.0,) * 6
+    if not np.all(high > low):
+        return zero, (0.0, 0.0, 0.0), False
+    side = float((high - low).max())
+    centres = ((low + high) / 2)[None, :]
+    half = side / 2
+    scale = max(float(np.abs(low).max()), float(np.abs(high).max()), side)
+    eps = 64 * _U * scale
+    sums = np.zeros(6)
+    absolute = 0.0
+    used, stopped, error = 0, False, (0.0, 0.0, 0.0)
+    while True:
+        radius = half * math.sqrt(2) + eps
+        values = np.array([np.min([s.g(centres) for s in sections if s.unit == k], axis=0) for k in units])
+        inside = (values < -radius).sum(axis=0)
+        unknown = (np.abs(values) <= radius).sum(axis=0)
+        lo = np.maximum(0, inside - 1)
+        hi = np.maximum(0, inside + unknown - 1)
+        used += centres.shape[0]
+        decided = lo == hi
+        chosen = decided & (lo > 0)
+        if np.any(chosen):
+            sums += _square_moments(centres[chosen], half, lo[chosen].astype(float))
+            absolute += float(lo[chosen].sum()) * (2 * half) ** 2
+        centres, lo, hi = centres[~decided], lo[~decided], hi[~decided]
+        if centres.shape[0] == 0:
+            break
+        spread = (hi - lo) / 2.0 * (2 * half) ** 2
+        reach = np.abs(centres).max(axis=1) + half
+        error = (float(spread.sum()), float(spread @ reach), float(spread @ (reach * reach)))
+        done = all(e <= t for e, t in zip(error, tolerance))
+        if done or used + 4 * centres.shape[0] > budget:
+            stopped = not done
+            sums += _square_moments(centres, half, (lo + hi) / 2.0)
+            absolute += float(((lo + hi) / 2.0).sum()) * (2 * half) ** 2
+            break
+        half /= 2
+        offsets = np.array([[sx, sy] for sx in (-1, 1) for sy in (-1, 1)], float) * half
+        centres = (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
+        error = (0.0, 0.0, 0.0)
+    rounding = (4 * math.log2(max(2, used)) + 8) * _U * absolute
+    error = (error[0] + rounding, error[1] + rounding * 2 * scale, error[2] + rounding * 4 * scale * scale)
+    return tuple(float(x) for x in sums), error, stopped
+
+
+def _square_moments(centres, half, weight):
+    """Σ weight · ``(A, ∫u, ∫v, ∫u², ∫uv, ∫v²)`` of the squares of half side ``half`` at ``centres``."""
+    w = weight * (2 * half) ** 2
+    u, v = centres[:, 0], centres[:, 1]
+    extra = half * half / 3
+    return np.array([w.sum(), w @ u, w @ v, w @ (u * u + extra), w @ (u * v), w @ (v * v + extra)])
 
 
 # -- clusters ------------------------------------------------------------------------------
@@ -784,6 +972,10 @@ def cluster_union(prims, tolerance):
         neighbours[j].add(i)
     triangle = any(neighbours[i] & neighbours[j] for i, j in pairs)
     exact, spent = True, False
+    prism = _prism_axis(units)
+    if triangle and prism is not None:
+        excess, exact, how = _prism_excess(units, prism[1], prism[0], tolerance, _CELL_BUDGET)
+        return Union(total - excess, exact, how == "spent", notes + ["prisms along one axis: refined across"])
     if triangle:
         excess, exact, how = _octree_excess(units, tolerance, _CELL_BUDGET)
         spent = how == "spent"
