@@ -85,10 +85,12 @@ CAUSES = {
     "transcription": ("a number typed by hand", "writes every element from the geometry"),
     "triangle_inequality": ("moments rounded or estimated by hand", "writes valid moments from the geometry"),
     "not_positive_definite": ("moments rounded or estimated by hand", "writes valid moments from the geometry"),
-    "beyond_geometry": ("rotor inertia of a motor added to the link, or a different (larger) CAD model",
+    "beyond_geometry": ("rotor inertia of a motor added to the link, a different (larger) CAD model, or a "
+                        "collision geometry smaller than the part (compare with --geometry visual)",
                         "writes the geometry's uniform solid, dropping that inertia: keep the declared values if "
                         "the rotor is meant (or give it as the joint's armature)"),
-    "com_outside_geometry": ("a frame error (the center of mass in another frame) or a different CAD model",
+    "com_outside_geometry": ("a frame error (the center of mass in another frame), a different CAD model, or a "
+                             "collision geometry smaller than the part",
                              "puts the center of mass inside the geometry, at its centroid"),
     "non_uniform": ("several materials (motors, batteries, metal and plastic) in a multi-material CAD model",
                     "replaces it with a uniform solid of the same mass, usually a worse estimate: keep it"),
