@@ -197,3 +197,22 @@ def test_a_box_with_two_half_cylinders_along_its_edges_is_bounded_across():
     assert abs(link.props.volume - union) <= link.props.error.volume + 4 * U * union
     assert link.props.error.volume <= 1e-3 * union
     assert link.props.center_of_mass == pytest.approx([0, 0, 0], abs=link.props.error.center_of_mass + 1e-15)
+
+
+def test_the_cli_asks_for_a_tolerance_and_says_when_it_was_not_reached(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    import massprops.robot.curved as curved
+    from massprops.cli import main
+    monkeypatch.setattr(curved, "_CELL_BUDGET", 200_000)
+    cylinder = '<collision><origin rpy="{}"/><geometry><cylinder radius="0.2" length="1"/></geometry></collision>'
+    path = tmp_path / "cross.urdf"
+    path.write_text(f'<robot name="r"><link name="l">{cylinder.format("0 0 0")}{cylinder.format("1.5 0 0")}'
+                    "</link></robot>")
+    strict = CliRunner().invoke(main, ["robot", "props", str(path), "--density", "1000"])
+    assert strict.exit_code == 0, strict.output
+    assert "not the 1e-09 asked (--tolerance)" in strict.output
+    loose = CliRunner().invoke(main, ["robot", "props", str(path), "--density", "1000", "--tolerance", "0.3"])
+    assert loose.exit_code == 0 and "asked" not in loose.output
+    refused = CliRunner().invoke(main, ["robot", "props", str(path), "--tolerance", "0"])
+    assert refused.exit_code == 2

@@ -22,7 +22,11 @@ bound on each, in this order:
    sphere, cylinder or capsule) share the inner one; a unit of revolution
    whose axis is a box's axis and whose radius stays inside the box's cross
    section shares with the box the profile clipped to the box's slab.
-3. **Otherwise** (three units that pairwise meet, or a pair none of the above
+3. **Prisms along one direction** (cylinders and boxes whose axes agree within
+   1e-9 rad, each modelled exactly along it with the swept volume of the turn
+   in the bound): exact in slabs between their ends, and across each slab a
+   certified quadtree as below, in two dimensions.
+4. **Otherwise** (three units that pairwise meet, or a pair none of the above
    decides) an octree over the region where units meet classifies cells by
    1-Lipschitz functions ``g_k`` (``g_k < 0`` inside unit ``k``: distance to a
    sphere, segment, cylinder, box; ``min r · (|y/r| − 1)`` for an ellipsoid):

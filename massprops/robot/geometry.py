@@ -402,8 +402,17 @@ def geometry_properties(geometry, density, *, resolver=None, repair=False, on_op
 
 # -- what encloses a link's geometry ---------------------------------------------
 
+_BALL = []
+
+
 def _unit_sphere_points():
     """Points whose convex hull holds the unit ball: an icosphere's vertices pushed out by its inradius."""
+    if not _BALL:
+        _BALL.append(_icosphere_around_ball())
+    return _BALL[0]
+
+
+def _icosphere_around_ball():
     from scipy.spatial import ConvexHull
     t = (1 + 5 ** 0.5) / 2
     points = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],

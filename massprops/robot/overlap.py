@@ -21,17 +21,24 @@ permutation, else widened by the rounding of the placement) are decided:
     sum is kept, with bounds that also cover the union (``|sum − union| +
     the union's bound``).
 
-* **Curved primitives** (sphere, cylinder, capsule, ellipsoid, cone), meshes
-  not read as closed surfaces (``on_open``) and geometries of different
-  densities stay whole.  Two spheres are decided exactly (``|c₁ − c₂| ≥ r₁ +
-  r₂``); otherwise the volume counted twice is at most ``U``, the smaller of
-  the boxes' intersection and either volume.  The error bounds are widened
-  to cover the union: a double-counted mass ``μ ≤ ρU`` lying in the boxes'
-  intersection ``B`` moves the mass by ``μ``, the center of mass by
-  ``μ D / m'`` (``D`` the farthest of ``B`` from it per axis, ``m'`` a lower
-  bound of the union's mass) and the inertia about it by ``μ R² + m (μ R /
-  m')²`` (``R`` the farthest point of ``B``).  ``checks.unresolved_overlap``
-  holds ``U``; a warning says so when ``U`` exceeds the link's volume bound.
+* **Primitives of one density** (sphere, cylinder, capsule, ellipsoid, cone,
+  and boxes not united with a mesh) that may overlap one another, and none of
+  them a mesh or a geometry of another density, are their union, computed by
+  :mod:`massprops.robot.curved` (closed forms; prisms and other shapes on a
+  certified grid refined until the bound is at most ``tolerance`` of the
+  link's mass and inertia, or a warning says how far it got).
+
+* **Otherwise** (a primitive meeting a mesh, different densities, meshes not
+  read as closed surfaces, ``on_open``) the geometries stay whole.  Two
+  spheres are decided exactly (``|c₁ − c₂| ≥ r₁ + r₂``); otherwise the volume
+  counted twice is at most ``U``, the smaller of the boxes' intersection and
+  either volume.  The error bounds are widened to cover the union: a
+  double-counted mass ``μ ≤ ρU`` lying in the boxes' intersection ``B`` moves
+  the mass by ``μ``, the center of mass by ``μ D / m'`` (``D`` the farthest of
+  ``B`` from it per axis, ``m'`` a lower bound of the union's mass) and the
+  inertia about it by ``μ R² + m (μ R / m')²`` (``R`` the farthest point of
+  ``B``).  ``checks.unresolved_overlap`` holds ``U``; a warning says so when
+  ``U`` exceeds the link's volume bound.
 """
 
 from __future__ import annotations
