@@ -457,7 +457,7 @@ def geometry_findings(inertial, points, margin):
                 worst_ratio = (ratio, n)
     if worst_out is not None:
         out, n = worst_out
-        findings.append(_Finding("com_outside_geometry", 1.0,
+        findings.append(_Finding("com_outside_geometry", None,
                                  f"the declared center of mass is {out:.3g} m outside the convex hull of the link's "
                                  f"geometry (along {_direction(n)}): no mass inside the geometry has it",
                                  {"distance": out}))
@@ -490,7 +490,7 @@ def geometry_findings(inertial, points, margin):
         if pseudo is not None:
             parts.append(f"it needs {pseudo:.3g}× the mass-weighted spread an ellipsoid holding the geometry allows "
                          "(pseudo-inertia test)")
-        findings.append(_Finding("beyond_geometry", 1.0, "the declared inertia needs mass farther out than the "
+        findings.append(_Finding("beyond_geometry", None, "the declared inertia needs mass farther out than the "
                                  "link's geometry reaches: " + "; ".join(parts),
                                  {"ratio": max(worst_ratio[0] if worst_ratio else 0.0, pseudo or 0.0)}))
     tests = (f"the center of mass inside the geometry's convex hull and the second moments within its reach along "
@@ -557,16 +557,18 @@ def diagnose(inertial, props, comparison, tolerances, *, rescaled=None, enclosur
         # Nothing a known mistake would do explains it: what can a density inside the geometry give?
         found, tests = geometry_findings(inertial, *enclosure)
         if not found:
-            found = [_Finding("non_uniform", 1.0, f"consistent with some non-uniform density inside the geometry "
+            found = [_Finding("non_uniform", None, f"consistent with some non-uniform density inside the geometry "
                                                   f"(it passes the tests every such density must: {tests}), not "
                                                   "with a uniform solid")]
         findings += found
-    findings.sort(key=lambda f: (f.residual, DIAGNOSES.index(f.name)))
+    findings.sort(key=lambda f: (math.inf if f.residual is None else f.residual, DIAGNOSES.index(f.name)))
     names, details = [], []
     for finding in findings:                    # the best explanation of each kind
         if finding.name in names:
             continue
         names.append(finding.name)
-        details.append({"name": finding.name, "residual": finding.residual, "message": finding.message,
-                        **finding.extra})
+        detail = {"name": finding.name, "residual": finding.residual, "message": finding.message, **finding.extra}
+        if finding.residual is None:             # a certified test, not a transformation's closeness
+            del detail["residual"]
+        details.append(detail)
     return names, details
