@@ -499,11 +499,13 @@ def geometry_findings(inertial, points, margin):
 
 
 def _valid_tensor(tensor):
-    """Positive definite with ``A + B >= C`` (in floats): a tensor some mass distribution has."""
+    """Positive semi-definite with ``A + B >= C`` to within the eigen-solver's rounding (a rod's tensor, whose
+    smallest moment is 0, included): a tensor some mass distribution has, or nearly."""
     if not np.all(np.isfinite(tensor)):
         return False
-    return bool(np.linalg.eigvalsh(tensor)[0] > 0 and np.linalg.eigvalsh(0.5 * np.trace(tensor) * np.eye(3)
-                                                                         - tensor)[0] >= 0)
+    slack = 16 * _U * float(np.abs(tensor).max())
+    return bool(np.linalg.eigvalsh(tensor)[0] >= -slack and np.linalg.eigvalsh(0.5 * np.trace(tensor) * np.eye(3)
+                                                                               - tensor)[0] >= -slack)
 
 
 def _direction(n):
