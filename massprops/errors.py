@@ -39,7 +39,7 @@ _FLAGS = frozenset({"repair", "recursive", "resume", "declared_only", "allow_env
 _VALUED = frozenset({"density", "mass", "unit", "pose", "only", "shell", "density_field", "density_map",
                      "max_unpacked", "max_instances", "max_depth", "timeout", "digits", "rtol", "steps", "duration", "jobs", "scheduler",
                      "omega", "about", "rotate", "translate", "on_open", "mass_policy", "massless", "joints",
-                     "geometry"})
+                     "geometry", "tolerance"})
 # Options whose keyword argument has another name and form: placeholder → (keyword spelling, option spelling).
 _RENAMED = {"package": ("packages={'NAME': 'DIR'}", "--package NAME=DIR"),
             "config": ("config_path", "--config"),

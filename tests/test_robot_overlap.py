@@ -1,5 +1,5 @@
 """Geometries of one link that overlap: meshes and boxes united (each point once), exactly placed unions as the
-oracle; curved primitives kept whole with a bound on the volume counted twice that the error bounds cover."""
+oracle; primitives united too (tests/test_robot_union.py has their closed-form unions)."""
 
 import math
 from fractions import Fraction
@@ -190,9 +190,9 @@ def _capsule_exact(r, length):
     return cylinder + 2 * hemisphere, [0, 0, 0], [[transverse, 0, 0], [0, transverse, 0], [0, 0, axial]]
 
 
-def test_a_cylinder_capped_by_two_spheres_is_kept_whole_with_bounds_covering_the_capsule():
+def test_a_cylinder_capped_by_two_spheres_is_a_capsule():
     # The union of a cylinder and a sphere on each end is a capsule (closed form); the sum counts two
-    # hemispheres twice.  The bound on the volume counted twice, and the error bounds, must cover that.
+    # hemispheres twice.  The link is the union, with bounds of rounding only.
     r, length = 0.25, 1.0
     cylinder = Geometry("cylinder", "collision", "c", size={"radius": r, "length": length})
     spheres = [Geometry("sphere", "collision", f"s{k}", pose=Pose(translation=(0, 0, z)), size={"radius": r})
@@ -200,10 +200,11 @@ def test_a_cylinder_capped_by_two_spheres_is_kept_whole_with_bounds_covering_the
     link = _link(cylinder, *spheres)
     exact = _capsule_exact(r, length)
     twice = 4 / 3 * math.pi * r ** 3
-    assert link.checks["unresolved_overlap"] >= twice
-    assert link.props.volume == pytest.approx(float(exact[0]) + twice, rel=1e-14)     # each counted whole
+    assert link.checks["unresolved_overlap"] == 0
+    assert link.checks["overlap"] == pytest.approx(twice, rel=1e-12)
     _covers(link.props, exact)
-    assert any("may overlap" in w and "unresolved_overlap" in w for w in link.warnings)
+    assert link.props.error.volume <= 1e-9 * link.props.volume
+    assert any("overlap by 6.54e+04 cm³" in w for w in link.warnings)
 
 
 def test_two_spheres_whose_boxes_meet_but_not_they_are_decided_exactly():
@@ -214,16 +215,16 @@ def test_two_spheres_whose_boxes_meet_but_not_they_are_decided_exactly():
     assert link.checks["unresolved_overlap"] == 0 and not link.warnings
 
 
-def test_two_overlapping_spheres_are_bounded():
+def test_two_overlapping_spheres_are_their_union():
     a = Geometry("sphere", "collision", "a", size={"radius": 0.5})
     b = Geometry("sphere", "collision", "b", pose=Pose(translation=(0.5, 0, 0)), size={"radius": 0.5})
     link = _link(a, b)
     # The exact lens counted twice: π (4r + d)(2r − d)² / 12 with d = r.
     lens = math.pi * (4 * 0.5 + 0.5) * (2 * 0.5 - 0.5) ** 2 / 12
-    assert link.checks["unresolved_overlap"] >= lens
-    summed = 2 * 4 / 3 * math.pi * 0.5 ** 3
-    assert link.props.volume == pytest.approx(summed, rel=1e-15)
-    assert link.props.error.volume >= lens and link.props.error.mass >= lens
+    assert link.checks["overlap"] == pytest.approx(lens, rel=1e-12)
+    union = 2 * 4 / 3 * math.pi * 0.5 ** 3 - lens
+    assert abs(link.props.volume - union) <= link.props.error.volume + 4 * U * union
+    assert link.props.error.volume <= 1e-9 * union
 
 
 def test_touching_primitives_add_no_warning():
@@ -265,10 +266,8 @@ def test_meshes_sharing_a_face_keep_the_sum():
 
 
 
-def test_copies_of_one_cylinder_whose_double_count_may_exceed_the_sum_still_have_properties(tmp_path):
-    # Four copies of one cylinder: the union is one cylinder, the sum four; the volume counted twice is bounded
-    # pair by pair, which exceeds the whole sum.  The link, and the robot's total, still have a center of mass,
-    # with bounds that cover the union's values.
+def test_copies_of_one_cylinder_are_one_cylinder(tmp_path):
+    # Four copies of one cylinder: the union is one cylinder, in the link and in the robot's total.
     from massprops.robot.analyze import RobotSettings, analyze
 
     r, length = 0.25, 1.0
@@ -276,8 +275,8 @@ def test_copies_of_one_cylinder_whose_double_count_may_exceed_the_sum_still_have
     link = _link(*copies)
     one = math.pi * r * r * length
     props = link.props
-    assert props.volume == pytest.approx(4 * one, rel=1e-14)
-    assert props.error.mass > props.mass
+    assert props.volume == pytest.approx(one, rel=1e-14)
+    assert props.error.mass <= 1e-9 * props.mass
     axial, transverse = one * r * r / 2, one * (3 * r * r + length * length) / 12
     _covers(props, (Fraction(one), [0, 0, 0], [[transverse, 0, 0], [0, transverse, 0], [0, 0, axial]]))
     cylinder = f'<collision><geometry><cylinder radius="{r}" length="{length}"/></geometry></collision>'
@@ -285,4 +284,4 @@ def test_copies_of_one_cylinder_whose_double_count_may_exceed_the_sum_still_have
     path.write_text(f'<robot name="r"><link name="l">{cylinder * 4}</link></robot>')
     whole = analyze(str(path), RobotSettings(command="props", density=1.0))
     assert whole["status"] == "ok" and whole["links"][0]["status"] == "ok"
-    assert whole["total"]["mass"] == pytest.approx(4 * one, rel=1e-14)
+    assert whole["total"]["mass"] == pytest.approx(one, rel=1e-14)

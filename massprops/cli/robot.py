@@ -51,6 +51,9 @@ def model_options(f):
         click.option("--root", "roots", multiple=True, metavar="DIR", type=click.Path(file_okay=False),
                      help="A folder the model may also read files from (repeatable); by default only its own "
                           "package and the packages it names."),
+        click.option("--tolerance", type=options.POSITIVE, default=1e-9, show_default=True,
+                     help="Largest error bound, relative to a link's mass and inertia, where its primitives "
+                          "overlap (the overlap is refined until within it)."),
         options.repair_option,
     ]
     for decorate in reversed(decorators):
@@ -59,7 +62,7 @@ def model_options(f):
 
 
 def _settings(command, geometry, mass_policy, density, package, config_path, joints, on_open, xacro_args, allow_env,
-              roots, repair, **extra):
+              roots, repair, tolerance=1e-9, **extra):
     from ..robot.analyze import RobotSettings
     from ..robot.geometry import parse_on_open
     parse = options.guarded(parse_on_open, on_open)
@@ -67,7 +70,8 @@ def _settings(command, geometry, mass_policy, density, package, config_path, joi
         raise SystemExit(2)
     return RobotSettings(command=command, geometry=geometry, mass_policy=mass_policy, density=density,
                          packages=package, config_path=config_path, joints=joints, repair=repair, on_open=on_open,
-                         xacro_args=xacro_args, allow_env=allow_env, roots=roots, option_style="cli", **extra)
+                         xacro_args=xacro_args, allow_env=allow_env, roots=roots, option_style="cli", tolerance=tolerance,
+                         **extra)
 
 
 def _analyze_all(models, settings, jobs):

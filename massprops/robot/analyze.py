@@ -50,6 +50,7 @@ class RobotSettings:
     allow_env: bool = False               # xacro's $(env ...), $(optenv ...) and $(cwd) may read the environment
     roots: tuple = ()                     # folders the model may read from besides its own package (--root)
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
+    tolerance: float = 1e-9               # relative bound asked of a link's union of overlapping primitives
 
     @property
     def policy(self):
@@ -79,7 +80,7 @@ def prepare(path, settings):
                         roots=tuple(settings.roots))
     model = load_model(path, resolver, xacro_args=dict(settings.xacro_args), allow_env=settings.allow_env)
     mass = MassSettings(settings.policy, settings.density, settings.geometry, settings.repair,
-                        parse_on_open(settings.on_open), config)
+                        parse_on_open(settings.on_open), config, tolerance=settings.tolerance)
     values = parse_joint_values(settings.joints, model)
     return Prepared(model, resolver, mass, config, values, link_poses(model, values))
 
@@ -341,7 +342,9 @@ def _mismatch(model, link, computed, prepared, settings):
     if not comparison.mismatched:
         return "ok", "", [], [], comparison.as_dict()
     rescaled = _rescaled(model, link, prepared, declared.mass.value)
-    names, details = diagnose(declared, props, comparison, settings.tolerances, rescaled=rescaled)
+    from .geometry import enclosing_points
+    names, details = diagnose(declared, props, comparison, settings.tolerances, rescaled=rescaled,
+                              enclosure=enclosing_points(computed.results))
     parts = []
     if "center_of_mass" in comparison.mismatched:
         parts.append(f"center of mass {comparison.com_distance:.3g} m off ({comparison.com_distance_relative:.1%} "

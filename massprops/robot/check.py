@@ -31,7 +31,27 @@ into the declared tensor within ``diagnosis_rtol`` when ``J`` itself is off:
 ``transcription``         one element (or two swapped) wrong while the others agree
 ``triangle_inequality``   ``A + B >= C`` violated (validity)
 ``not_positive_definite`` a principal moment ≤ 0 (validity)
+``beyond_geometry``       no density inside the link's geometry gives the declared second moments
+``com_outside_geometry``  the declared center of mass is outside the convex hull of the geometry
+``non_uniform``           none of the above: the declared values pass every test a density
+                          inside the geometry must pass, and differ from the uniform solid's
 ========================= ===================================================================
+
+**Against the geometry's reach**, certified (:func:`geometry_findings`): the
+link's geometry lies inside the convex hull of points ``P`` (mesh vertices;
+polytopes around the primitives, :func:`massprops.robot.geometry.enclosing_points`).
+For a direction ``n`` let ``a ≤ n·x ≤ b`` over ``P`` (floats widened by
+their rounding).  A mass ``m`` inside the geometry with center ``c`` has
+``a ≤ n·c ≤ b`` (else ``com_outside_geometry``) and, by the Bhatia–Davis
+inequality, ``nᵀΣn ≤ m (b − n·c)(n·c − a)`` with ``Σ = ∫(x−c)(x−c)ᵀ dm =
+tr(J)/2 · 1 − J``; and, for an ellipsoid ``E = {x : (x−c₀)ᵀM(x−c₀) ≤ 1}``
+holding ``P``, the pseudo-inertia condition of Wensing, Kim and Slotine
+(2017), ``tr(J_p Q_E) ≥ 0``, which reads ``tr(M (Σ + m (c−c₀)(c−c₀)ᵀ)) ≤ m``.
+A violation of either is ``beyond_geometry``.  Directions: the hull's face
+normals, the eigenvectors of ``Σ``, the link axes and 200 spread ones;
+ellipsoids: the one around the box of ``P`` and the smallest one around
+``P`` (Khachiyan), each scaled until it holds every point with a margin.
+The inequalities are evaluated in rationals from the floats.
 """
 
 from __future__ import annotations
@@ -46,10 +66,35 @@ from ..core.rounding import U as _U
 from ..frames import Pose
 from .model import ELEMENTS, tensor_from_elements
 
-__all__ = ["Tolerances", "Validity", "declared_validity", "Comparison", "compare", "diagnose", "DIAGNOSES"]
+__all__ = ["Tolerances", "Validity", "declared_validity", "Comparison", "compare", "diagnose", "DIAGNOSES", "CAUSES",
+           "geometry_findings"]
 
 DIAGNOSES = ("product_sign", "about_link_origin", "rpy_inverted", "units", "missing_scale", "transcription",
-             "triangle_inequality", "not_positive_definite")
+             "triangle_inequality", "not_positive_definite", "beyond_geometry", "com_outside_geometry", "non_uniform")
+# What usually causes each diagnosis, and what `robot write` would change (one line each at the end of the text).
+CAUSES = {
+    "product_sign": ("a CAD export of +∫xy dm (URDF, SDF and MJCF want −∫xy dm)",
+                     "writes the products with the geometry's sign"),
+    "about_link_origin": ("a CAD tool reporting the tensor about the output frame, not the center of mass",
+                          "writes the tensor about the center of mass"),
+    "rpy_inverted": ("a frame error: the inertial's rotation applied the wrong way",
+                     "writes the tensor in link axes with no rotation (or principal axes with --frame principal)"),
+    "units": ("a CAD export in mm, cm or g", "writes SI values"),
+    "missing_scale": ("a mesh in mm, cm or inches read without its scale",
+                      "writes values from the scaled geometry; give the mesh its scale too"),
+    "transcription": ("a number typed by hand", "writes every element from the geometry"),
+    "triangle_inequality": ("moments rounded or estimated by hand", "writes valid moments from the geometry"),
+    "not_positive_definite": ("moments rounded or estimated by hand", "writes valid moments from the geometry"),
+    "beyond_geometry": ("rotor inertia of a motor added to the link, a different (larger) CAD model, or a "
+                        "collision geometry smaller than the part (compare with --geometry visual)",
+                        "writes the geometry's uniform solid, dropping that inertia: keep the declared values if "
+                        "the rotor is meant (or give it as the joint's armature)"),
+    "com_outside_geometry": ("a frame error (the center of mass in another frame), a different CAD model, or a "
+                             "collision geometry smaller than the part",
+                             "puts the center of mass inside the geometry, at its centroid"),
+    "non_uniform": ("several materials (motors, batteries, metal and plastic) in a multi-material CAD model",
+                    "replaces it with a uniform solid of the same mass, usually a worse estimate: keep it"),
+}
 _UNIT_FACTORS = {1e6: "the tensor in kg·mm² (×1e6)", 1e4: "the tensor in kg·cm² (×1e4)",
                  1e3: "a factor 1e3 (g for kg, or a length scale applied once instead of squared)",
                  1e9: "the tensor in g·mm² (×1e9)", 1e7: "the tensor in g·cm² (×1e7)",
@@ -314,12 +359,172 @@ def _com_findings(inertial, props, size, tolerance):
                                                   f"geometry gives {computed[k]:.6g}, the others agree: {how}")
 
 
-def diagnose(inertial, props, comparison, tolerances, *, rescaled=None):
+def _spread_directions(count=200):
+    """``count`` unit vectors spread over the sphere (a Fibonacci lattice)."""
+    k = np.arange(count) + 0.5
+    z = 1 - 2 * k / count
+    phi = k * math.pi * (3 - 5 ** 0.5)
+    rho = np.sqrt(1 - z * z)
+    return np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z])
+
+
+def _smallest_ellipsoid(points, steps=200):
+    """Khachiyan's smallest enclosing ellipsoid, roughly: ``(c₀, M)`` with ``(x−c₀)ᵀM(x−c₀) ≤ ~1`` on the points."""
+    n = points.shape[0]
+    q = np.vstack([points.T, np.ones(n)])
+    u = np.full(n, 1.0 / n)
+    for _ in range(steps):
+        x = q @ (u[:, None] * q.T)
+        reach = ((q.T @ np.linalg.inv(x)) * q.T).sum(axis=1)
+        j = int(np.argmax(reach))
+        step = (reach[j] - 4) / (4 * (reach[j] - 1))
+        if step < 1e-4:
+            break
+        u *= 1 - step
+        u[j] += step
+    centre = points.T @ u
+    spread = points.T @ (u[:, None] * points) - np.outer(centre, centre)
+    return centre, np.linalg.inv(spread) / 3
+
+
+def _enclosing(points, margin, centre, matrix):
+    """``matrix`` scaled so the ellipsoid at ``centre`` holds every point widened by ``margin`` (None if it fails)."""
+    if not np.all(np.isfinite(matrix)):
+        return None
+    matrix = (matrix + matrix.T) / 2
+    top = float(np.linalg.eigvalsh(matrix).max())
+    if not top > 0 or float(np.linalg.eigvalsh(matrix).min()) <= 0:
+        return None
+    d = points - centre
+    q = float(((d @ matrix) * d).sum(axis=1).max())
+    radius = (math.sqrt(q) * (1 + 1e-9) + math.sqrt(top) * margin * 2) * (1 + 1e-9)
+    return matrix / (radius * radius)
+
+
+def geometry_findings(inertial, points, margin):
+    """``(findings, tests)``: ``beyond_geometry`` and ``com_outside_geometry`` findings (see the module docstring),
+    and a description of the tests passed (for ``non_uniform``)."""
+    m = Fraction(float(inertial.mass.value))
+    c = inertial.center_of_mass
+    j = inertial.inertia_com
+    cf = [Fraction(float(x)) for x in c]
+    jf = [[Fraction(float(x)) for x in row] for row in j]
+    half = sum(jf[k][k] for k in range(3)) / 2
+    sigma = [[(half if a == b else 0) - jf[a][b] for b in range(3)] for a in range(3)]
+    sigma_float = 0.5 * np.trace(j) * np.eye(3) - j
+    directions = [np.eye(3), -np.eye(3), _spread_directions()]
+    try:
+        from scipy.spatial import ConvexHull
+        hull = ConvexHull(points)
+        directions.append(hull.equations[:, :3])
+        corners = points[hull.vertices]
+    except Exception:  # noqa: BLE001 - a flat or degenerate cloud: spread directions only
+        corners = points
+    if np.all(np.isfinite(sigma_float)):
+        directions.append(np.linalg.eigh(sigma_float)[1].T)
+    away = c - corners.mean(axis=0)
+    if np.any(away):
+        directions.append(away[None, :] / np.linalg.norm(away))
+    directions = np.vstack(directions)
+    projected = corners @ directions.T
+    slack = margin + 8 * _U * float(np.abs(corners).max()) * 3
+    high = projected.max(axis=0) + slack
+    low = projected.min(axis=0) - slack
+    findings = []
+    worst_out, worst_ratio = None, None
+    # Floats first, pessimistic by far more than their rounding (δ): only the directions that may violate a
+    # test are decided in rationals.
+    delta = 1e-9 * max(float(np.abs(corners).max()), float(np.abs(c).max()), 1e-300)
+    mu_f = directions @ c
+    variance_f = ((directions @ sigma_float) * directions).sum(axis=1)
+    allowed_f = float(m) * np.maximum(high - mu_f - delta, 0) * np.maximum(mu_f - low - delta, 0)
+    candidates = (mu_f > high - delta) | (mu_f < low + delta) | (variance_f * (1 + 1e-9) >= allowed_f)
+    for k in np.flatnonzero(candidates):
+        n = directions[k]
+        nf = [Fraction(float(x)) for x in n]
+        mu = sum(a * b for a, b in zip(nf, cf))
+        b, a = Fraction(float(high[k])), Fraction(float(low[k]))
+        if mu > b or mu < a:
+            out = float(max(mu - b, a - mu))
+            if worst_out is None or out > worst_out[0]:
+                worst_out = (out, n)
+            continue
+        variance = sum(nf[p] * sigma[p][q] * nf[q] for p in range(3) for q in range(3))
+        allowed = m * (b - mu) * (mu - a)
+        if variance > allowed:
+            ratio = float(variance / allowed) if allowed > 0 else math.inf
+            if worst_ratio is None or ratio > worst_ratio[0]:
+                worst_ratio = (ratio, n)
+    if worst_out is not None:
+        out, n = worst_out
+        findings.append(_Finding("com_outside_geometry", None,
+                                 f"the declared center of mass is {out:.3g} m outside the convex hull of the link's "
+                                 f"geometry (along {_direction(n)}): no mass inside the geometry has it",
+                                 {"distance": out}))
+    ellipsoids = []
+    low_box, high_box = corners.min(axis=0), corners.max(axis=0)
+    box_half = np.maximum((high_box - low_box) / 2, 1e-300)
+    ellipsoids.append(((low_box + high_box) / 2, np.diag(1 / (3 * box_half ** 2))))
+    if corners.shape[0] >= 4:
+        try:
+            ellipsoids.append(_smallest_ellipsoid(corners))
+        except np.linalg.LinAlgError:
+            pass
+    pseudo = None
+    for centre, matrix in ellipsoids:
+        matrix = _enclosing(points, margin + 8 * _U * float(np.abs(points).max()), centre, matrix)
+        if matrix is None:
+            continue
+        mf = [[Fraction(float(x)) for x in row] for row in matrix]
+        d = [cf[k] - Fraction(float(centre[k])) for k in range(3)]
+        moment = sum(mf[p][q] * (sigma[q][p] + m * d[q] * d[p]) for p in range(3) for q in range(3))
+        if moment > m:
+            ratio = float(moment / m)
+            if pseudo is None or ratio > pseudo:
+                pseudo = ratio
+    if worst_ratio is not None or pseudo is not None:
+        parts = []
+        if worst_ratio is not None:
+            parts.append(f"along {_direction(worst_ratio[1])} its second moment is {worst_ratio[0]:.3g}× the most "
+                         "any mass inside the geometry's extent can have")
+        if pseudo is not None:
+            parts.append(f"it needs {pseudo:.3g}× the mass-weighted spread an ellipsoid holding the geometry allows "
+                         "(pseudo-inertia test)")
+        findings.append(_Finding("beyond_geometry", None, "the declared inertia needs mass farther out than the "
+                                 "link's geometry reaches: " + "; ".join(parts),
+                                 {"ratio": max(worst_ratio[0] if worst_ratio else 0.0, pseudo or 0.0)}))
+    tests = (f"the center of mass inside the geometry's convex hull and the second moments within its reach along "
+             f"{len(directions)} directions and inside {len(ellipsoids)} ellipsoids holding it")
+    return findings, tests
+
+
+def _valid_tensor(tensor):
+    """Positive semi-definite with ``A + B >= C`` to within the eigen-solver's rounding (a rod's tensor, whose
+    smallest moment is 0, included): a tensor some mass distribution has, or nearly."""
+    if not np.all(np.isfinite(tensor)):
+        return False
+    slack = 16 * _U * float(np.abs(tensor).max())
+    return bool(np.linalg.eigvalsh(tensor)[0] >= -slack and np.linalg.eigvalsh(0.5 * np.trace(tensor) * np.eye(3)
+                                                                               - tensor)[0] >= -slack)
+
+
+def _direction(n):
+    n = np.asarray(n, float)
+    k = int(np.argmax(np.abs(n)))
+    if abs(abs(n[k]) - 1) < 1e-12:
+        return ("+" if n[k] > 0 else "-") + "xyz"[k]
+    return "[" + ", ".join(f"{x:.2f}" for x in n) + "]"
+
+
+def diagnose(inertial, props, comparison, tolerances, *, rescaled=None, enclosure=None):
     """The diagnoses (names, best first) and their details for a mismatched link.
 
     ``rescaled`` maps a mesh scale ``s`` to the link's properties with its
     unscaled meshes scaled by ``s`` (and ``"linear:s"`` to those with a scaled
     mesh's factor applied once), at the declared mass: the ``missing_scale`` test.
+    ``enclosure`` ``(points, margin)`` holds the link's geometry: the tests of
+    :func:`geometry_findings`; a mismatch nothing else explains is then
+    ``non_uniform`` or one of those.
     """
     tolerance = tolerances.diagnosis_rtol
     findings = []
@@ -350,12 +555,22 @@ def diagnose(inertial, props, comparison, tolerances, *, rescaled=None):
             findings.append(_Finding("missing_scale", tensor_residual, message, {"scale": key}))
     if any(f.name == "missing_scale" for f in findings):
         findings = [f for f in findings if f.name != "units"]
-    findings.sort(key=lambda f: (f.residual, DIAGNOSES.index(f.name)))
+    if not findings and enclosure is not None and enclosure[0] is not None and _valid_tensor(inertial.inertia_com):
+        # Nothing a known mistake would do explains it: what can a density inside the geometry give?
+        found, tests = geometry_findings(inertial, *enclosure)
+        if not found:
+            found = [_Finding("non_uniform", None, f"consistent with some non-uniform density inside the geometry "
+                                                  f"(it passes the tests every such density must: {tests}), not "
+                                                  "with a uniform solid")]
+        findings += found
+    findings.sort(key=lambda f: (math.inf if f.residual is None else f.residual, DIAGNOSES.index(f.name)))
     names, details = [], []
     for finding in findings:                    # the best explanation of each kind
         if finding.name in names:
             continue
         names.append(finding.name)
-        details.append({"name": finding.name, "residual": finding.residual, "message": finding.message,
-                        **finding.extra})
+        detail = {"name": finding.name, "residual": finding.residual, "message": finding.message, **finding.extra}
+        if finding.residual is None:             # a certified test, not a transformation's closeness
+            del detail["residual"]
+        details.append(detail)
     return names, details

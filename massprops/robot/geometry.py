@@ -400,3 +400,87 @@ def geometry_properties(geometry, density, *, resolver=None, repair=False, on_op
         warnings = (resolution.warning, *warnings)
     return GeometryResult(props, bounds, triangles, path, resolution.by if resolution else "inline", warnings, checks,
                           surface)
+
+
+# -- what encloses a link's geometry ---------------------------------------------
+
+_BALL = []
+
+
+def _unit_sphere_points():
+    """Points whose convex hull holds the unit ball: an icosphere's vertices pushed out by its inradius."""
+    if not _BALL:
+        _BALL.append(_icosphere_around_ball())
+    return _BALL[0]
+
+
+def _icosphere_around_ball():
+    from scipy.spatial import ConvexHull
+    t = (1 + 5 ** 0.5) / 2
+    points = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
+                       [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
+    points /= np.linalg.norm(points, axis=1)[:, None]
+    for _ in range(2):                       # midpoints of the hull's edges, pushed to the sphere
+        hull = ConvexHull(points)
+        edges = {tuple(sorted((a, b))) for face in hull.simplices for a, b in ((face[0], face[1]),
+                                                                                (face[1], face[2]),
+                                                                                (face[2], face[0]))}
+        middle = np.array([(points[a] + points[b]) / 2 for a, b in edges])
+        points = np.vstack([points, middle / np.linalg.norm(middle, axis=1)[:, None]])
+    hull = ConvexHull(points)
+    inradius = float(-hull.equations[:, 3].max())          # the hull's nearest face plane from the centre
+    return points / inradius * (1 + 1e-9)
+
+
+def _polygon(radius, count=48):
+    """A regular polygon around the circle of ``radius`` in the xy plane (its vertices, z = 0)."""
+    angles = np.arange(count) * (2 * math.pi / count)
+    reach = radius / math.cos(math.pi / count) * (1 + 1e-9)
+    return np.column_stack([reach * np.cos(angles), reach * np.sin(angles), np.zeros(count)])
+
+
+def enclosing_points(results):
+    """Points in the link frame whose convex hull holds every geometry of ``results`` (``(geometry, props,
+    GeometryResult)``), and how far their rounding may reach (a margin for tests on them), or ``(None, 0)``."""
+    clouds, reach = [], 0.0
+    ball = None
+    for geometry, _, result in results:
+        kind = geometry.kind
+        pose = geometry.pose
+        if kind == "mesh" and result.surface is not None:
+            surface = result.surface
+            local = surface.mesh.vertices @ surface.linear.T
+        elif kind in PRIMITIVES:
+            size = geometry.size
+            if kind == "box":
+                half = np.asarray(size["size"], float) / 2
+                local = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float) * half
+            elif kind in ("sphere", "ellipsoid", "capsule"):
+                ball = _unit_sphere_points() if ball is None else ball
+                if kind == "ellipsoid":
+                    local = ball * np.asarray(size["radii"], float)
+                else:
+                    r = float(size["radius"])
+                    h = float(size.get("length", 0.0)) / 2
+                    local = np.vstack([ball * r + [0, 0, h], ball * r - [0, 0, h]])
+            else:
+                r, h = float(size["radius"]), float(size["length"]) / 2
+                disk = _polygon(r)
+                if kind == "cylinder":
+                    local = np.vstack([disk + [0, 0, h], disk - [0, 0, h]])
+                else:
+                    local = np.vstack([disk - [0, 0, h], [[0, 0, h]]])
+        elif result.bounds is not None:
+            low, high = result.bounds
+            clouds.append(np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
+                                    for z in (low[2], high[2])], float))
+            reach = max(reach, 16 * _U * float(np.abs(result.bounds).max()))
+            continue
+        else:
+            continue
+        placed = pose.apply(local)
+        clouds.append(placed)
+        reach = max(reach, 16 * _U * (float(np.abs(local).max()) * 2 + float(np.abs(pose.translation).max())))
+    if not clouds:
+        return None, 0.0
+    return np.vstack(clouds), reach

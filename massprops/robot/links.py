@@ -47,6 +47,7 @@ class MassSettings:
     repair: bool = False
     on_open: OnOpen = OnOpen()
     config: object = None
+    tolerance: float = 1e-9          # relative bound asked of the union of overlapping primitives
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +177,7 @@ def link_properties(model, link, settings, resolver):
     results, infos, warnings, defaulted = _geometries(link, settings, resolver)
     if not results:
         return LinkProps(None, tuple(infos), tuple(warnings))
-    solid = link_solid(link.name, results, repair=settings.repair)
+    solid = link_solid(link.name, results, repair=settings.repair, tolerance=settings.tolerance)
     total = solid.props
     warnings += solid.warnings
     densities = {props.density for _, props, _ in results}

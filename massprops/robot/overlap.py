@@ -21,17 +21,24 @@ permutation, else widened by the rounding of the placement) are decided:
     sum is kept, with bounds that also cover the union (``|sum − union| +
     the union's bound``).
 
-* **Curved primitives** (sphere, cylinder, capsule, ellipsoid, cone), meshes
-  not read as closed surfaces (``on_open``) and geometries of different
-  densities stay whole.  Two spheres are decided exactly (``|c₁ − c₂| ≥ r₁ +
-  r₂``); otherwise the volume counted twice is at most ``U``, the smaller of
-  the boxes' intersection and either volume.  The error bounds are widened
-  to cover the union: a double-counted mass ``μ ≤ ρU`` lying in the boxes'
-  intersection ``B`` moves the mass by ``μ``, the center of mass by
-  ``μ D / m'`` (``D`` the farthest of ``B`` from it per axis, ``m'`` a lower
-  bound of the union's mass) and the inertia about it by ``μ R² + m (μ R /
-  m')²`` (``R`` the farthest point of ``B``).  ``checks.unresolved_overlap``
-  holds ``U``; a warning says so when ``U`` exceeds the link's volume bound.
+* **Primitives of one density** (sphere, cylinder, capsule, ellipsoid, cone,
+  and boxes not united with a mesh) that may overlap one another, and none of
+  them a mesh or a geometry of another density, are their union, computed by
+  :mod:`massprops.robot.curved` (closed forms; prisms and other shapes on a
+  certified grid refined until the bound is at most ``tolerance`` of the
+  link's mass and inertia, or a warning says how far it got).
+
+* **Otherwise** (a primitive meeting a mesh, different densities, meshes not
+  read as closed surfaces, ``on_open``) the geometries stay whole.  Two
+  spheres are decided exactly (``|c₁ − c₂| ≥ r₁ + r₂``); otherwise the volume
+  counted twice is at most ``U``, the smaller of the boxes' intersection and
+  either volume.  The error bounds are widened to cover the union: a
+  double-counted mass ``μ ≤ ρU`` lying in the boxes' intersection ``B`` moves
+  the mass by ``μ``, the center of mass by ``μ D / m'`` (``D`` the farthest of
+  ``B`` from it per axis, ``m'`` a lower bound of the union's mass) and the
+  inertia about it by ``μ R² + m (μ R / m')²`` (``R`` the farthest point of
+  ``B``).  ``checks.unresolved_overlap`` holds ``U``; a warning says so when
+  ``U`` exceeds the link's volume bound.
 """
 
 from __future__ import annotations
@@ -47,10 +54,12 @@ from ..errors import MassPropsError
 from ..mesh.shells import joined_groups
 from ..scene import combine_parts
 from .units import volume_text
+from .model import PRIMITIVES
 
 __all__ = ["LinkSolid", "link_solid"]
 
 _TINY = 16 * math.ldexp(1.0, -1074)      # underflow in a placement product
+DEFAULT_TOLERANCE = 1e-9                 # relative bound asked of a link's union of overlapping primitives
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,9 +80,10 @@ class _Piece:
     surface: object = None    # massprops.robot.geometry.Surface, or None (kept whole)
     placed: tuple = ()        # the surface in the link frame: (vertices, faces, move bound per vertex)
     checks: dict | None = None
+    size: dict | None = None
 
 
-def link_solid(link_name, results, *, repair=False):
+def link_solid(link_name, results, *, repair=False, tolerance=DEFAULT_TOLERANCE):
     """The union of a link's geometries (see the module docstring).
 
     Parameters
@@ -95,10 +105,20 @@ def link_solid(link_name, results, *, repair=False):
     unitable = [(i, j) for i, j, _ in pairs if _unitable(pieces[i], pieces[j])]
     warnings, parts = [], []
     unresolved = [(i, j, v) for i, j, v in pairs if (i, j) not in set(unitable) and not _apart(pieces[i], pieces[j])]
+    clusters = _clusters(pieces, unitable, unresolved)
+    clustered = {k for cluster in clusters for k in cluster}
+    unresolved = [(i, j, v) for i, j, v in unresolved if i not in clustered]
+    for cluster in clusters:
+        part, said, facts = _curved_union(link_name, [pieces[k] for k in cluster], tolerance)
+        parts.append(part)
+        warnings += said
+        checks["overlap"] += facts["overlap"]
+        checks.setdefault("united", []).append([pieces[k].name for k in cluster])
     for group in joined_groups(range(len(pieces)), np.array(unitable, dtype=np.int64).reshape(-1, 2)):
         members = [pieces[k] for k in group]
         if len(group) == 1:
-            parts.append(members[0].props)
+            if group[0] not in clustered:
+                parts.append(members[0].props)
             continue
         try:
             part, facts, said = _united(link_name, members, repair)
@@ -128,6 +148,61 @@ def link_solid(link_name, results, *, repair=False):
     return LinkSolid(total, checks, tuple(warnings))
 
 
+def _clusters(pieces, unitable, unresolved):
+    """Groups of primitives of one density whose overlaps are computed (:mod:`massprops.robot.curved`).
+
+    A group joins the primitives that may overlap; it is computed when none
+    of them may also overlap a mesh, a geometry of another density, or is a box
+    united with others through the arrangement.
+    """
+    def eligible(piece):
+        return piece.kind in PRIMITIVES and piece.props.density > 0
+    united = {k for pair in unitable for k in pair}
+    curved = [(i, j) for i, j, _ in unresolved if eligible(pieces[i]) and eligible(pieces[j])
+              and pieces[i].props.density == pieces[j].props.density]
+    blocked = {k for i, j, _ in unresolved if (i, j) not in set(curved) for k in (i, j)} | united
+    groups = joined_groups(range(len(pieces)), np.array(curved, dtype=np.int64).reshape(-1, 2))
+    return [sorted(int(k) for k in group) for group in groups
+            if len(group) > 1 and not any(k in blocked for k in group)]
+
+
+def _curved_union(link_name, members, tolerance):
+    """``(props, warnings, facts)``: the union of a group of primitives, computed (see the module docstring)."""
+    from .curved import cluster_union, prims_of, props_of, raw_of
+    summed = combine_parts([m.props for m in members])
+    total = raw_of(summed)
+    density = members[0].props.density
+    reach = max(float(np.abs(m.props.pose.translation).max()) for m in members) + max(
+        abs(float(m.box[1][k] - m.box[0][k])) for m in members for k in range(3))
+    j_scale = float(np.abs(summed.inertia_com).max()) / density
+    wanted = (tolerance * total.volume / 4, tolerance * total.volume * reach / 8, tolerance * j_scale / 16)
+    found = cluster_union(prims_of(members), wanted)
+    area = sum(m.props.surface_area for m in members)
+    props = props_of(found.raw, density, area)
+    if props is None:
+        return summed, [f"link {link_name!r}: geometries {_names(members)} overlap and their union could not be "
+                        "bounded: each is counted whole"], {"overlap": 0.0}
+    twice = total.volume - found.raw.volume
+    said = []
+    if twice > found.raw.e_volume + total.e_volume:
+        said.append(f"link {link_name!r}: geometries {_names(members)} overlap by {_cm3(twice)}: the link is their "
+                    "union, each point counted once (checks.overlap)")
+    if found.spent:
+        relative = max(props.error.mass / props.mass, props.error.inertia_com / max(float(np.abs(
+            props.inertia_com).max()), 1e-300))
+        said.append(f"link {link_name!r}: the overlap of geometries {_names(members)} is computed to within "
+                    f"{relative:.1e} of the link's mass and inertia, not the {tolerance:g} asked "
+                    "({tolerance}): the refinement stopped at its budget")
+    return props, said, {"overlap": max(twice, 0.0)}
+
+
+def _cm3(volume):
+    """A volume in m³ said in cm³ or mm³ as a robotics engineer reads it."""
+    if abs(volume) >= 1e-6:
+        return f"{volume * 1e6:.3g} cm³"
+    return f"{volume * 1e9:.3g} mm³"
+
+
 def _names(members):
     names = [repr(m.name) for m in members]
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
@@ -141,7 +216,8 @@ def _piece(geometry, props, result):
         # No mass to count twice; or a mesh closed by welding its noise, a move bounded in its own frame only.
         surface = None
     placed = _placed(surface) if surface is not None else ()
-    return _Piece(geometry.name, geometry.kind, props, _box(geometry, result, placed), surface, placed, result.checks)
+    return _Piece(geometry.name, geometry.kind, props, _box(geometry, result, placed), surface, placed, result.checks,
+                  geometry.size)
 
 
 def _box(geometry, result, placed):

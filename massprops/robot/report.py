@@ -139,7 +139,16 @@ def check_text(obj):
              "none is declared)"]
     lines += _messages(obj)
     lines.append(f"  summary: {', '.join(f'{n} {s}' for s, n in obj['summary'].items())}")
+    lines += _causes(obj)
     return "\n".join(lines)
+
+
+def _causes(obj):
+    """One line per diagnosis present: what usually causes it, and what ``robot write`` would change."""
+    from .check import CAUSES, DIAGNOSES
+    present = {name for link in obj["links"] for name in link.get("diagnoses") or []}
+    return [f"  {name}: usually {CAUSES[name][0]}; `massprops robot write` {CAUSES[name][1]}"
+            for name in DIAGNOSES if name in present]
 
 
 def _csv_row(obj, link):
