@@ -111,10 +111,15 @@ def test_the_graph_limits_are_options(runner, tmp_path):
     assert deep.exit_code == 1 and "nested more than 100 levels" in deep.output and "--max-depth N" in deep.output
     raised = runner.invoke(main, ["props", str(tmp_path / "chain.3mf"), "--max-depth", "151", "--format", "json"])
     assert raised.exit_code == 0 and '"volume": 1e-09' in raised.output
-    for command in (["props"], ["batch", "-q"], ["scene"]):
-        many = runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "100"])
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text('<robot name="r"><link name="a"><collision><geometry><mesh filename="shared.dae"/></geometry>'
+                    '</collision></link></robot>')
+    for command, target in ((["props"], "shared.dae"), (["batch", "-q"], "shared.dae"), (["scene"], "shared.dae"),
+                            (["view", "-o", str(tmp_path / "shared.png")], "shared.dae"),
+                            (["robot", "props"], "robot.urdf")):
+        many = runner.invoke(main, [*command, str(tmp_path / target), "--max-instances", "100"])
         assert many.exit_code == 1 and "places at least 128 geometries" in many.output and "--max-instances N" in many.output
-        assert runner.invoke(main, [*command, str(tmp_path / "shared.dae"), "--max-instances", "128"]).exit_code == 0
+        assert runner.invoke(main, [*command, str(tmp_path / target), "--max-instances", "128"]).exit_code == 0
     with pytest.raises(OptionError, match="max_depth must be a positive whole number"):
         massprops.mass_properties(tmp_path / "chain.3mf", max_depth=0)
 

@@ -55,6 +55,7 @@ def model_options(f):
                      help="Largest error bound, relative to a link's mass and inertia, where its primitives "
                           "overlap (the overlap is refined until within it)."),
         options.repair_option,
+        options.graph_limit_options,
     ]
     for decorate in reversed(decorators):
         f = decorate(f)

@@ -33,8 +33,9 @@ def _output(ctx, param, value):
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
+@options.graph_limit_options
 def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate, translate, about, density_field,
-         density_map, shell, repair, self_intersection, max_unpacked):
+         density_map, shell, repair, self_intersection, max_unpacked, max_instances, max_depth):
     """Draw each FILE as it was integrated: its centre of mass, principal axes and equivalent inertia box.
 
     The principal axes are drawn from the centre of mass with lengths by
@@ -58,8 +59,10 @@ def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate,
     def one(path):
         result = mass_properties(path, density=density, mass=total_mass, unit=unit, pose=pose, repair=repair,
                                  density_field=density_field, density_map=density_map, shell=shell,
-                                 max_unpacked=max_unpacked, self_intersection=self_intersection)
-        vertices, faces = display_triangles(read(path, max_unpacked=max_unpacked))
+                                 max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
+                                 self_intersection=self_intersection)
+        vertices, faces = display_triangles(read(path, max_unpacked=max_unpacked, max_instances=max_instances,
+                                                 max_depth=max_depth))
         return result, report.result_dict(result, about=about), vertices, faces
 
     for path in files:

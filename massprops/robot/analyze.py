@@ -51,6 +51,14 @@ class RobotSettings:
     roots: tuple = ()                     # folders the model may read from besides its own package (--root)
     option_style: str = "python"          # how messages spell options: "python" (repair=True) or "cli" (--repair)
     tolerance: float = 1e-9               # relative bound asked of a link's union of overlapping primitives
+    max_instances: int | None = None      # instance-graph limits of the mesh readers (3MF, COLLADA); None: default
+    max_depth: int | None = None
+
+    @property
+    def limits(self):
+        """The mesh readers' graph limits given, as ``(name, value)`` pairs (hashable: a cache key)."""
+        return tuple((name, value) for name, value in (("max_instances", self.max_instances),
+                                                       ("max_depth", self.max_depth)) if value is not None)
 
     @property
     def policy(self):
@@ -80,7 +88,8 @@ def prepare(path, settings):
                         roots=tuple(settings.roots))
     model = load_model(path, resolver, xacro_args=dict(settings.xacro_args), allow_env=settings.allow_env)
     mass = MassSettings(settings.policy, settings.density, settings.geometry, settings.repair,
-                        parse_on_open(settings.on_open), config, tolerance=settings.tolerance)
+                        parse_on_open(settings.on_open), config, tolerance=settings.tolerance,
+                        limits=settings.limits)
     values = parse_joint_values(settings.joints, model)
     return Prepared(model, resolver, mass, config, values, link_poses(model, values))
 

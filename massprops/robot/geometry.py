@@ -251,15 +251,16 @@ def _checked(mesh, path=None, repair=False):
                       resolved=bool(checked.resolved))
 
 
-def _read_checked(path, repair):
-    """The :class:`_MeshEntry` of a mesh file, read and integrated once per (file, repair); other errors raise."""
+def _read_checked(path, repair, limits=()):
+    """The :class:`_MeshEntry` of a mesh file, read and integrated once per (file, repair, limits); other errors
+    raise.  ``limits`` are the readers' keyword limits (``max_instances``, ``max_depth``) as pairs."""
     from ..io import read
     from ..mesh import TriangleMesh
     stat = os.stat(path)
-    key = (os.path.abspath(path), stat.st_size, stat.st_mtime_ns, repair)
+    key = (os.path.abspath(path), stat.st_size, stat.st_mtime_ns, repair, limits)
     if key not in _MESHES:
         try:
-            mesh = read(path)
+            mesh = read(path, **dict(limits))
             if not isinstance(mesh, TriangleMesh):
                 raise MassPropsError("a volume mesh cannot be a link geometry", path=path,
                                      fix="give the surface mesh (STL, OBJ, PLY, DAE, ...)")
@@ -286,7 +287,7 @@ def _vertex_bounds(vertices, scale, pose, stretch=None):
     return np.array([points.min(axis=0), points.max(axis=0)])
 
 
-def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
+def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen(), limits=()):
     """A mesh geometry's properties (placed at its pose) and box: ``(props, bounds, triangles, warnings, checks,
     surface)``."""
     from ..scene.graph import stretched_area2, stretched_moments
@@ -294,7 +295,7 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen()):
     if any(float(s) == 0 or not math.isfinite(float(s)) for s in scale):
         raise MassPropsError(f"{geometry.where}: mesh scale {tuple(map(float, scale))} has a zero or non-finite "
                              "factor", path=path, fix="give a non-zero scale in every axis")
-    entry = _read_checked(path, repair) if geometry.mesh is None else _checked(geometry.mesh, repair=repair)
+    entry = _read_checked(path, repair, limits) if geometry.mesh is None else _checked(geometry.mesh, repair=repair)
     # A mesh file that declares its length unit (Collada's <unit meter=...>) is in that unit: to metres first,
     # then the description's scale, as rviz and Gazebo read it.
     unit = getattr(entry.mesh, "unit", None)
@@ -366,7 +367,7 @@ def _outward(mesh):
     return TriangleMesh(mesh.vertices, faces)
 
 
-def geometry_properties(geometry, density, *, resolver=None, repair=False, on_open=OnOpen()):
+def geometry_properties(geometry, density, *, resolver=None, repair=False, on_open=OnOpen(), limits=()):
     """Mass properties of one geometry at ``density`` (kg/m³), placed in the link frame.
 
     Returns
@@ -395,7 +396,7 @@ def geometry_properties(geometry, density, *, resolver=None, repair=False, on_op
     else:
         path = None
     props, bounds, triangles, warnings, checks, surface = mesh_properties(geometry, path, density, repair=repair,
-                                                                          on_open=on_open)
+                                                                          on_open=on_open, limits=limits)
     if resolution is not None and resolution.warning:
         warnings = (resolution.warning, *warnings)
     return GeometryResult(props, bounds, triangles, path, resolution.by if resolution else "inline", warnings, checks,

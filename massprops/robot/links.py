@@ -48,6 +48,7 @@ class MassSettings:
     on_open: OnOpen = OnOpen()
     config: object = None
     tolerance: float = 1e-9          # relative bound asked of the union of overlapping primitives
+    limits: tuple = ()               # the mesh readers' graph limits, (name, value) pairs (see RobotSettings.limits)
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +131,7 @@ def _geometries(link, settings, resolver):
         density, mass, source = _density_for(link, geometry, settings)
         try:
             result = geometry_properties(geometry, density if density is not None else 1.0, resolver=resolver,
-                                         repair=settings.repair, on_open=settings.on_open)
+                                         repair=settings.repair, on_open=settings.on_open, limits=settings.limits)
         except MassPropsError as exc:
             raise type(exc)(f"link {link.name!r}: {exc.problem}", path=exc.path, fix=exc.fix) from None
         where = geometry.where or geometry.name
