@@ -6,16 +6,13 @@ that it did (so the scan below scans something)."""
 
 import json
 import re
-import textwrap
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from massprops.cli import main
 from massprops.io import obj
-from massprops.mesh import TriangleMesh
 from massprops.validation import solids
+from cli_files import run, write as _write
 
 _XACRO_NS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
 # What a message for the shell never contains: a class, a repr, a Python keyword argument or a placeholder.
@@ -24,16 +21,6 @@ _PYTHON = [re.compile(p) for p in (
     r"(?<![-\w])(packages|roots|config_path|xacro_args|repair|declared_only|allow_env|mass_policy|on_open|"
     r"density|massless)=", r"\(tried: nowhere\)", r"\{(package|root|density|config|mass_policy|xacro_arg)[}=]",
     r"(?<!\w)(None|True|False)(?!\w)")]
-
-
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _write(path, text):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(textwrap.dedent(text).lstrip(), encoding="utf-8")
-    return path
 
 
 def _box_obj(path, size=(0.1, 0.2, 0.3), offset=(0.0, 0.0, 0.0)):

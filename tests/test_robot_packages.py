@@ -1,25 +1,13 @@
 """package:// and $(find) as a ROS user expects them: the rules in order, trees without package.xml,
 ambiguity listed, and the folder-name rule still confined (package://etc/passwd finds nothing)."""
 
-import textwrap
 
 import pytest
-from click.testing import CliRunner
 
-from massprops.cli import main
 from massprops.io import obj
 from massprops.robot import RobotSettings, analyze
 from massprops.validation import solids
-
-
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _write(path, text):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(textwrap.dedent(text).lstrip(), encoding="utf-8")
-    return path
+from cli_files import run, write as _write
 
 
 def _mesh(path, size=(0.1, 0.2, 0.3)):

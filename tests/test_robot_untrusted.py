@@ -10,27 +10,16 @@ import io
 import textwrap
 
 import pytest
-from click.testing import CliRunner
 
-from massprops.cli import main
 from massprops.io import obj
 from massprops.robot import RobotSettings, analyze
 from massprops.validation import solids
+from cli_files import run, write as _write
 
 xacro = pytest.importorskip("xacro")
 
 _XACRO_NS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
 _BOX = '<collision><geometry><box size="1 2 3"/></geometry></collision>'
-
-
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _write(path, text):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(textwrap.dedent(text).lstrip(), encoding="utf-8")
-    return path
 
 
 def _layout(tmp_path):

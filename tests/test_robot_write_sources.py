@@ -5,25 +5,13 @@ is compared with the original."""
 
 import json
 import re
-import textwrap
 
 import pytest
-from click.testing import CliRunner
 
-from massprops.cli import main
+from cli_files import run, write as _write
 
 _INERTIAL = re.compile(rb"\s*<inertial\b(?:[^>]*/>|.*?</inertial>)", re.S)
 _XACRO_NS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
-
-
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _write(path, text):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(textwrap.dedent(text).lstrip(), encoding="utf-8")
-    return path
 
 
 def _outside_inertials(data):

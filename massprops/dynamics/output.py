@@ -7,6 +7,7 @@ import contextlib
 import numpy as np
 
 from ..errors import MassPropsError
+from ..plotting import pyplot
 from .integrators import trajectory_error
 
 __all__ = ["write_csv", "plot_trajectory", "plot_work_precision", "summary", "work_precision_table"]
@@ -15,14 +16,7 @@ CSV_HEADER = "t,wx,wy,wz,qw,qx,qy,qz,Hx,Hy,Hz,K"
 
 
 def _pyplot():
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise MassPropsError("--plot needs matplotlib, which is not installed",
-                             fix="pip install 'massprops[plot]'") from None
-    return plt
+    return pyplot("--plot", "pip install 'massprops[plot]'")
 
 
 @contextlib.contextmanager

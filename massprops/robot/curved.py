@@ -716,6 +716,17 @@ def _cell_raw(centres, half, weight):
     return float(w.sum()), first, second
 
 
+def _excess_range(values, radius):
+    """Per cell, from each unit's signed distance at its centre (``values``, units × cells) and the cell's
+    circumradius: the least and most of ``n − 1`` over the cell (n the units holding a point, 0 when none),
+    and whether the two agree."""
+    inside = (values < -radius).sum(axis=0)
+    unknown = (np.abs(values) <= radius).sum(axis=0)
+    lo = np.maximum(0, inside - 1)
+    hi = np.maximum(0, inside + unknown - 1)
+    return lo, hi, lo == hi
+
+
 def _octree_excess(units, tolerance, budget):
     """Volume moments of ``∫ max(0, n − 1)`` over space, bounded (see the module docstring)."""
     region = _overlap_box(units)
@@ -735,12 +746,8 @@ def _octree_excess(units, tolerance, budget):
     while True:
         radius = half * math.sqrt(3) + eps
         values = np.array([u.g(centres) for u in units])          # (units, cells)
-        inside = (values < -radius).sum(axis=0)
-        unknown = (np.abs(values) <= radius).sum(axis=0)
-        lo = np.maximum(0, inside - 1)
-        hi = np.maximum(0, inside + unknown - 1)
+        lo, hi, decided = _excess_range(values, radius)
         used += centres.shape[0]
-        decided = lo == hi
         if np.any(decided & (lo > 0)):
             chosen = decided & (lo > 0)
             v, f, s = _cell_raw(centres[chosen], half, lo[chosen].astype(float))
@@ -920,12 +927,8 @@ def _quadtree_excess(sections, tolerance, budget):
     while True:
         radius = half * math.sqrt(2) + eps
         values = np.array([np.min([s.g(centres) for s in sections if s.unit == k], axis=0) for k in units])
-        inside = (values < -radius).sum(axis=0)
-        unknown = (np.abs(values) <= radius).sum(axis=0)
-        lo = np.maximum(0, inside - 1)
-        hi = np.maximum(0, inside + unknown - 1)
+        lo, hi, decided = _excess_range(values, radius)
         used += centres.shape[0]
-        decided = lo == hi
         chosen = decided & (lo > 0)
         if np.any(chosen):
             sums += _square_moments(centres[chosen], half, lo[chosen].astype(float))

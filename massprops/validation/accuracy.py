@@ -31,7 +31,6 @@ from fractions import Fraction
 import numpy as np
 
 from . import analytic, solids
-from ..errors import MassPropsError
 from ..frames import Pose
 from ..mesh.surface import TriangleMesh
 
@@ -347,14 +346,9 @@ def plot(rows, path):
     MassPropsError
         matplotlib is not installed.
     """
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        from matplotlib.lines import Line2D
-    except ImportError:
-        raise MassPropsError("the plot needs matplotlib, which is not installed",
-                             fix="pip install 'massprops[plot]' (or pass --no-plot)") from None
+    from ..plotting import pyplot
+    plt = pyplot("the plot", "pip install 'massprops[plot]' (or pass --no-plot)")
+    from matplotlib.lines import Line2D
     figure, panels = plt.subplots(1, 2, figsize=(12, 4.8), sharex=True, sharey=True)
     names = list(dict.fromkeys(r["case"] for r in rows))
     colours = dict(zip(names, plt.rcParams["axes.prop_cycle"].by_key()["color"]))

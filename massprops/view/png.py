@@ -9,7 +9,7 @@ drawn over them.
 
 from __future__ import annotations
 
-from ..errors import MassPropsError
+from ..plotting import pyplot
 
 __all__ = ["write_png", "VIEWS"]
 
@@ -20,14 +20,7 @@ _PANEL_LINES = 44
 
 
 def _pyplot():
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise MassPropsError("the image needs matplotlib, which is not installed",
-                             fix="pip install 'massprops[plot]' (or write a .html page, which needs plotly)") from None
-    return plt
+    return pyplot("the image", "pip install 'massprops[plot]' (or write a .html page, which needs plotly)")
 
 
 def _view(ax, picture, h, v, limits):
