@@ -467,16 +467,17 @@ def _cells(corners, segments, normal):
     drop = max(range(3), key=lambda k: abs(normal[k]))
     i, j = (drop + 1) % 3, (drop + 2) % 3
     first = [(*q, 1) for q in corners]
-    cells = [(first, _box(first, i, j))]
+    boxed = len(segments) > 3                  # with few segments the boxes cost more than the tests they save
+    cells = [(first, _box(first, i, j) if boxed else None)]
     for segment in segments:
-        reach = _box(segment, i, j)
+        reach = _box(segment, i, j) if boxed else None
         out = []
         for cell, box in cells:
-            halves = None if _apart(box, reach) else _split(cell, segment, i, j)
+            halves = None if boxed and _apart(box, reach) else _split(cell, segment, i, j)
             if halves is None:
                 out.append((cell, box))
             else:
-                out.extend((half, _box(half, i, j)) for half in halves)
+                out.extend((half, _box(half, i, j) if boxed else None) for half in halves)
         cells = out
     return [cell for cell, _ in cells], (i, j)
 
