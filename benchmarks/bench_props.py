@@ -155,9 +155,15 @@ def interleaved(commands, repeat):
 
 
 def massprops_cmd(path, *options):
-    """The installed ``massprops`` script (what users run), else ``python -m massprops``."""
+    """The installed ``massprops`` script (what users run), else ``python -m massprops``.
+
+    The script beside this interpreter first: the one on PATH may be a
+    version manager's shim (pyenv's is a bash script that execs another,
+    tens of ms), which ``python -c "import numpy"`` is not measured through.
+    """
     import shutil
-    script = shutil.which("massprops")
+    beside = os.path.join(os.path.dirname(sys.executable), "massprops")
+    script = beside if os.access(beside, os.X_OK) else shutil.which("massprops")
     return ([script] if script else [sys.executable, "-m", "massprops"]) + ["props", *options, path]
 
 

@@ -9,9 +9,10 @@ import os
 import time
 
 import numpy as np
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from functools import lru_cache
 
+from .records import record
 from . import core as _core
 from .frames import Pose
 from .errors import ArgumentTypeError, MassPropsError, OptionError
@@ -57,7 +58,7 @@ def order_for(only):
     return 2 if not wanted else max(QUANTITIES[q] for q in wanted)
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class Result:
     """One input's outcome: its properties plus what was checked and said on the way."""
 
@@ -143,7 +144,7 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
                   source_dtype=str(getattr(mesh, "source_dtype", "float64")))
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class Checked:
     """A mesh checked, its solid resolved and integrated (:func:`checked_solid`).
 

@@ -6,7 +6,6 @@ precision so every number round-trips.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 
@@ -156,6 +155,7 @@ def to_json(value):
     value = plain(value if isinstance(value, dict) else list(value))
     value = finite_or_null(value) if isinstance(value, dict) else [
         finite_or_null(v) if isinstance(v, dict) else v for v in value]
+    import json                         # lazily: the text report does not need it (start-up)
     text = json.dumps(value, indent=2, allow_nan=False)
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
