@@ -155,9 +155,15 @@ def interleaved(commands, repeat):
 
 
 def massprops_cmd(path, *options):
-    """The installed ``massprops`` script (what users run), else ``python -m massprops``."""
+    """The installed ``massprops`` script (what users run), else ``python -m massprops``.
+
+    The script beside this interpreter first: the one on PATH may be a
+    version manager's shim (pyenv's is a bash script that execs another,
+    tens of ms), which ``python -c "import numpy"`` is not measured through.
+    """
     import shutil
-    script = shutil.which("massprops")
+    beside = os.path.join(os.path.dirname(sys.executable), "massprops")
+    script = beside if os.access(beside, os.X_OK) else shutil.which("massprops")
     return ([script] if script else [sys.executable, "-m", "massprops"]) + ["props", *options, path]
 
 
@@ -292,10 +298,50 @@ def in_process_ns(path, repeat, budget=0.5):
     return float(ns), int(calls)
 
 
+# One peer's whole path (read the file, compute) in process: the best of at least `repeat` calls and of
+# as many as fit in the budget, as for massprops.  argv: path, triangles, repeat, budget, setup, step.
+_PEER_IN_PROCESS = """
+import sys, time
+path, m, repeat, budget = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+exec(sys.argv[5])
+step = compile(sys.argv[6], "step", "exec")
+times = []
+while len(times) < repeat or sum(times) < budget:
+    begin = time.perf_counter()
+    exec(step, dict(globals(), path=path))
+    times.append(time.perf_counter() - begin)
+print(min(times) / m * 1e9)
+"""
+
+def peers_mujoco_body():
+    import peers
+    return [line for line in peers._MUJOCO.strip().splitlines() if not line.startswith("import ")]
+
+
+# (setup, step) of each peer in the scaling table: trimesh, and MuJoCo (the fastest other peer installed
+# here: pymeshlab, numpy-stl and meshlib are not).  MuJoCo's step is its end-to-end program's body.
+_SCALING_PEERS = {
+    "trimesh": ("import trimesh", "trimesh.load(path).mass_properties"),
+    "MuJoCo (MjSpec compile)": ("import numpy, mujoco",
+                                "\n".join(line.replace("sys.argv[1]", "path") for line in peers_mujoco_body())),
+}
+PEER_SCALING_LIMIT = 1_500_000            # peers are not run on the 10M mesh (minutes, several GB)
+
+
+def peer_in_process_ns(name, path, m, repeat, budget=0.5):
+    setup, step = _SCALING_PEERS[name]
+    done = subprocess.run([sys.executable, "-c", _PEER_IN_PROCESS, path, str(m), str(repeat), str(budget), setup,
+                           step], capture_output=True, text=True)
+    return float(done.stdout) if done.returncode == 0 else None
+
+
 def scaling(quick):
-    sizes = [10_000, 100_000, 1_000_000] + ([] if quick else [10_000_000])
+    import peers
+    sizes = [1_000, 10_000, 100_000, 1_000_000] + ([] if quick else [10_000_000])
+    others = [name for name in _SCALING_PEERS if peers.installed(name)]
     rows = ["| triangles | file MiB | `massprops props` s | ns/triangle in process (best of calls) | peak MiB "
-            "| peak / file |", "|---:|---:|---:|---:|---:|---:|"]
+            "| peak / file | " + " | ".join(f"{name} ns/triangle in process" for name in others) + " |",
+            "|---:|---:|---:|---:|---:|---:|" + "---:|" * len(others)]
     per_triangle = []
     for target in sizes:
         path, m = torus_stl(target)
@@ -304,9 +350,15 @@ def scaling(quick):
         size = os.path.getsize(path) / MIB
         ns, calls = in_process_ns(path, repeat + 1)
         per_triangle.append(ns)
-        rows.append(f"| {m:,} | {size:.1f} | {_seconds(wall)} | {ns:.0f} (of {calls}) | {peak:.0f} | {peak / size:.2f} |")
+        theirs = []
+        for name in others:
+            found = peer_in_process_ns(name, path, m, 2) if m <= PEER_SCALING_LIMIT else None
+            theirs.append("not run" if m > PEER_SCALING_LIMIT else "failed" if found is None else f"{found:.0f}")
+        rows.append(f"| {m:,} | {size:.1f} | {_seconds(wall)} | {ns:.0f} (of {calls}) | {peak:.0f} | {peak / size:.2f} | "
+                    + " | ".join(theirs) + " |")
     return "\n".join(rows) + (f"\n\nTime per triangle in process: largest / smallest = "
-                              f"{max(per_triangle) / min(per_triangle):.2f}× over these sizes.")
+                              f"{max(per_triangle) / min(per_triangle):.2f}× over these sizes (massprops); "
+                              f"peers not run above {PEER_SCALING_LIMIT:,} triangles.")
 
 
 def machine():

@@ -9,9 +9,10 @@ import os
 import time
 
 import numpy as np
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from functools import lru_cache
 
+from .records import record
 from . import core as _core
 from .frames import Pose
 from .errors import ArgumentTypeError, MassPropsError, OptionError
@@ -131,7 +132,7 @@ def _other_result(mesh, path, start, order, *, shell, density_field, density_map
                   source_dtype=str(getattr(mesh, "source_dtype", "float64")))
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class Checked:
     """A mesh checked, its solid resolved and integrated (:func:`checked_solid`).
 

@@ -10,11 +10,15 @@ letters are extrinsic rotations (about the fixed axes), upper-case intrinsic.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+if TYPE_CHECKING:                       # numpy.typing costs 0.4 ms at start-up
+    from numpy.typing import ArrayLike
+
+from .records import record
 from .errors import OptionError
 
 __all__ = ["Pose", "frozen_array", "matmul", "matvec", "quat_to_matrix", "quat_from_matrix", "quat_multiply", "quat_conjugate",
@@ -129,7 +133,7 @@ def quat_conjugate(q):
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class Pose:
     """Where a part sits: ``x = rotation @ x' + translation``.
 

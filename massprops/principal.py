@@ -13,11 +13,11 @@ noise or on face order.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
+from .records import record
 from .core.rounding import U as _U
 
 __all__ = ["Principal", "principal", "axis_angle_bounds", "physical_checks", "DEFAULT_RTOL", "AXIS_ANGLE_TOLERANCE"]
@@ -30,7 +30,7 @@ AXIS_ANGLE_TOLERANCE = 1e-3
 _PROJECTION_FLOOR = 1e-6
 
 
-@dataclass(frozen=True)
+@record
 class Principal:
     """Principal moments (3,), axes (3, 3) as rows, degenerate index groups,
     the moments' absolute error bound, the tolerance used for grouping, and

@@ -10,13 +10,17 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from fractions import Fraction
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+if TYPE_CHECKING:                       # numpy.typing costs 0.4 ms at start-up
+    from numpy.typing import ArrayLike
+
+from .records import record
 from .core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
 from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia
@@ -41,7 +45,7 @@ def unit_factor(unit):
         raise OptionError(f"unknown unit {unit!r}", fix=f"pick one of {', '.join(UNITS)}") from None
 
 
-@dataclass(frozen=True)
+@record
 class ErrorBounds:
     """Absolute bounds on the largest element error of each quantity, same units as it.
 
@@ -206,7 +210,7 @@ def _inertia(m0, first, second, exp, length, rho):
     return inertia
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class MassProperties:
     """Mass properties of one solid.
 

@@ -6,7 +6,6 @@ precision so every number round-trips.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 
@@ -156,12 +155,14 @@ def to_json(value):
     value = plain(value if isinstance(value, dict) else list(value))
     value = finite_or_null(value) if isinstance(value, dict) else [
         finite_or_null(v) if isinstance(v, dict) else v for v in value]
+    import json                         # lazily: the text report does not need it (start-up)
     text = json.dumps(value, indent=2, allow_nan=False)
     return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 
 def to_jsonl(objects):
     """JSON Lines: each result object on one line, as :func:`to_json` writes it (non-finite values as null)."""
+    import json
     return "".join(json.dumps(finite_or_null(plain(obj)), allow_nan=False) + "\n" for obj in objects)
 
 

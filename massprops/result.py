@@ -8,16 +8,17 @@ one-line ``repr`` and a notebook table.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
 from .properties import MassProperties
+from .records import record
 
 __all__ = ["Result"]
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class Result:
     """One input's outcome: its properties plus what was checked and said on the way.
 

@@ -34,7 +34,7 @@ from .workers import TIMED_OUT, WORKER_FAILED, run_workers
 from ..frames import Pose
 
 __all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "DEFAULT_TIMEOUT", "expand_inputs", "run_one",
-           "run_chunk", "run_batch", "check_settings", "state_path", "default_jobs"]
+           "run_chunk", "run_batch", "state_path", "default_jobs"]
 
 FORMATS = ("csv", "jsonl")
 RETRIED = (WORKER_FAILED, TIMED_OUT)
@@ -177,15 +177,6 @@ def failed_outcome(path, kind, detail, settings, output_format, timeout=None):
                    "with {resume} to try again; `massprops props FILE` shows what fails")
     message = _one_line(render_options(message, settings.option_style))
     return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), kind)
-
-
-def check_settings(settings):
-    """Raise the OptionError a bad setting would give on every file, before the run starts."""
-    from ..compute import mass_properties
-    from ..validation.solids import tetrahedron
-    mass_properties(tetrahedron(), density=settings.density, mass=settings.mass, unit=settings.unit,
-                    pose=settings.pose, repair=settings.repair)
-    return True
 
 
 # ---------------------------------------------------------------- running

@@ -17,10 +17,10 @@ caller can bound what the decisions could miss.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..records import record
 from . import _core
 from .arrays import as_points
 from .frame import frame_of
@@ -39,7 +39,7 @@ def _extension():
     return _intersect
 
 
-@dataclass(frozen=True)
+@record
 class Intersections:
     """Triangle pairs that share a point they should not.
 

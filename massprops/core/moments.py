@@ -17,10 +17,10 @@ cancel heavily, the sums are redone with every term in double-double.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..records import record
 from . import _core
 from .arrays import as_indices, as_points
 from .frame import frame_of
@@ -34,7 +34,7 @@ _CANCELLATION_LIMIT = 16.0
 _PARALLEL_ABOVE = 1 << 14
 
 
-@dataclass(frozen=True)
+@record
 class Moments:
     """Raw volume moments of a closed mesh in scaled, shifted coordinates.
 

@@ -7,11 +7,11 @@ thread count.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
+from ..records import record
 from . import _core
 from .arrays import as_indices
 from .threads import threads_for
@@ -22,7 +22,7 @@ _PARALLEL_ABOVE = 1 << 14
 __all__ = ["EdgeSummary", "edge_summary", "shells", "FaceGroups", "face_groups", "group_rows", "distinct_faces"]
 
 
-@dataclass(frozen=True)
+@record
 class EdgeSummary:
     """Counts over the undirected edges of a triangle mesh.
 
@@ -114,7 +114,7 @@ def shells(faces, n_vertices, *, labels=True):
     return (None if found is None else np.asarray(found)), count
 
 
-@dataclass(frozen=True)
+@record
 class FaceGroups:
     """Faces grouped by their set of three vertices.
 

@@ -30,10 +30,11 @@ resolved on the way:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
+from ..records import record
 from ..errors import MeshGeometryError
 from ..core import edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
@@ -42,7 +43,7 @@ __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
            "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
 
 
-@dataclass(frozen=True)
+@record
 class Solid:
     """The faces whose signed integrals are the solid's, and what was resolved to get them.
 
@@ -109,7 +110,7 @@ def without_unused_vertices(mesh):
     return type(mesh)(mesh.vertices[kept], relabel[faces], mesh.source_dtype, notes, mesh.unit)
 
 
-@dataclass(frozen=True)
+@record
 class _Repeats:
     faces: np.ndarray            # faces kept, in input order, each turned to its group's net orientation
     weights: np.ndarray          # how many times each kept face counts (its net multiplicity)

@@ -12,10 +12,11 @@ of the checks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
+from ..records import record
 from ..core import distinct_faces, edge_summary, face_groups, shells, weld_corners, weld_indexed
 from ..errors import MeshGeometryError, OpenMeshError, WindingError
 from ..frames import matvec
@@ -28,7 +29,7 @@ def unused_note(ignored):
     return (f"ignored {ignored} vertices with NaN or infinite coordinates that no face uses",) if ignored else ()
 
 
-@dataclass(frozen=True, eq=False)
+@record(eq=False)
 class TriangleMesh:
     """A welded triangle surface in its local frame.
 
@@ -108,7 +109,7 @@ class TriangleMesh:
                             self.unit)
 
 
-@dataclass(frozen=True)
+@record
 class MeshChecks:
     """What validation found; reported under ``checks`` in the JSON output."""
 

@@ -35,6 +35,7 @@ typedef struct {
     size_t capacity;   /* bytes allocated */
 } Growable;
 
+void advise_huge(void *data, size_t bytes);      /* huge pages for a large array, where offered */
 int grow_reserve(Growable *g, size_t bytes);   /* 0, or -1 when memory ran out */
 /* grow_reserve with its common case (room enough) inline */
 static inline int reserve(Growable *g, size_t bytes) { return g->size + bytes <= g->capacity ? 0 : grow_reserve(g, bytes); }

@@ -2,6 +2,11 @@
 #define _GNU_SOURCE
 #include "core.h"
 
+#include <stdint.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include <errno.h>
 #include <fcntl.h>
 #include <stdarg.h>
@@ -23,6 +28,22 @@ void fail(Failure *failure, int kind, const char *fix, const char *format, ...)
     snprintf(failure->fix, sizeof failure->fix, "%s", fix ? fix : "");
 }
 
+/* Large arrays in huge pages where the kernel offers them on request (Linux, transparent huge pages in
+ * "madvise" mode): one fault per 2 MiB instead of 512, and fewer TLB misses in the weld's hash table.
+ * Only the whole 2 MiB pages inside the block are advised; the contents are unchanged. */
+void advise_huge(void *data, size_t bytes)
+{
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    const uintptr_t huge = (uintptr_t)1 << 21;
+    uintptr_t start = ((uintptr_t)data + huge - 1) & ~(huge - 1), end = ((uintptr_t)data + bytes) & ~(huge - 1);
+    if (data && bytes >= 4 * huge && end > start)
+        madvise((void *)start, end - start, MADV_HUGEPAGE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
 int grow_reserve(Growable *g, size_t bytes)
 {
     size_t wanted = g->size + bytes, capacity;
@@ -37,6 +58,7 @@ int grow_reserve(Growable *g, size_t bytes)
         return -1;
     g->data = data;
     g->capacity = capacity;
+    advise_huge(data, capacity);
     return 0;
 }
 

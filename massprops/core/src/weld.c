@@ -33,6 +33,7 @@ static int resize(Welder *w, int bits)
     const double *stored = (const double *)w->vertices.data;
     if (!slots)
         return -1;
+    advise_huge(slots, size * sizeof *slots);
     free(w->slots);
     w->slots = slots;
     w->bits = bits;
@@ -211,7 +212,8 @@ static int weld_block(Welder *w, const double *points, int64_t count, index_t *o
  * are looked up in (or added to) the first range's table.  A vertex first seen in range t comes
  * after every vertex of the earlier ranges, so the numbers are those of one thread welding all
  * points in order, whatever the number of threads. */
-#define WELD_BLOCK 196608               /* points widened and welded at a time (about 4.7 MB) */
+#define WELD_BLOCK 4608                 /* points widened and welded at a time, a multiple of 3 (108 kB: from the
+                                           allocator's heap, not new pages of mmap at every call; in cache) */
 
 typedef struct {
     PointSource source;
@@ -267,6 +269,7 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
         fail(failure, ERR_MEMORY, NULL, "out of memory for %lld triangles", (long long)(count / 3));
         return -1;
     }
+    advise_huge(out->faces, (size_t)count * sizeof(index_t));
     memset(&work, 0, sizeof work);
     work.source = source;
     work.context = context;
