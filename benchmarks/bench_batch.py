@@ -28,7 +28,7 @@ DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_data", "batch"
 def _part(rng):
     """A closed mesh of 1k–10k triangles: a perturbed icosphere or a prism, off the axes."""
     from massprops.validation import solids
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     if rng.random() < 0.5:
         sphere = solids.icosphere(int(rng.integers(3, 5)), float(rng.uniform(0.5, 2.0)))
         # a radial bump per vertex keeps the surface closed and star-shaped but not a sphere

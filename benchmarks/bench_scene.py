@@ -117,7 +117,7 @@ def _glb_file(count):
     if os.path.exists(path):
         return path
     import trimesh
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     from massprops.io import read
     quats, positions = _placements(count)
     scene = trimesh.Scene()
@@ -151,7 +151,7 @@ def _ours(path, repeat):
 def _trimesh_loop(path, count, sample):
     """Σ of trimesh's per-instance properties over the first ``sample`` instances, and its time."""
     import trimesh
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     quats, positions = _placements(count)
     bases = [trimesh.load(p, process=False) for p in _meshes()]
     start = time.perf_counter()

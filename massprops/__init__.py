@@ -10,10 +10,10 @@ reader or command needs them.
 
 from .api import mass_properties
 from .compute import Result
-from .errors import MassPropsError
-from .frames import Pose
+from .model.errors import MassPropsError
+from .model.frames import Pose
 from .mesh import TriangleMesh
-from .properties import ErrorBounds, MassProperties
+from .model.properties import ErrorBounds, MassProperties
 
 __all__ = ["mass_properties", "Result", "MassProperties", "ErrorBounds", "Pose", "TriangleMesh", "MassPropsError"]
 __version__ = "0.1.0"

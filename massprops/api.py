@@ -18,8 +18,8 @@ from numpy.typing import ArrayLike
 
 from . import compute
 from .compute import Result
-from .errors import ArgumentTypeError, OptionError, option
-from .frames import Pose
+from .model.errors import ArgumentTypeError, OptionError, option
+from .model.frames import Pose
 from .mesh.arrays import is_path
 
 __all__ = ["mass_properties", "Source"]

@@ -12,14 +12,14 @@ import numpy as np
 from dataclasses import replace
 from functools import lru_cache
 
-from .records import record
+from .model.records import record
 from . import core as _core
-from .frames import Pose
-from .errors import ArgumentTypeError, MassPropsError, OptionError
+from .model.frames import Pose
+from .model.errors import ArgumentTypeError, MassPropsError, OptionError
 from .mesh.arrays import as_mesh, is_path
 from .mesh.surface import TriangleMesh
-from .properties import MassProperties, unit_factor
-from .resolution import annotate
+from .model.properties import MassProperties, unit_factor
+from .model.resolution import annotate
 from .result import Result
 
 __all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities", "Checked", "checked_solid"]
@@ -226,7 +226,7 @@ def _closed(mesh, path, warnings):
     counts (None: once each).
     """
     from dataclasses import replace
-    from .errors import OpenMeshError
+    from .model.errors import OpenMeshError
     from .mesh.solid import without_repeated_faces
     from .mesh.surface import check_shells
     welded = None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .errors import MassPropsError
+from .model.errors import MassPropsError
 
 __all__ = ["pyplot"]
 

@@ -11,7 +11,7 @@ import re
 
 import numpy as np
 
-from .errors import printable
+from .model.errors import printable
 
 __all__ = ["plain", "result_dict", "finite_or_null", "to_json", "to_jsonl", "to_text", "significant", "vector_text",
            "display_bounds", "about_bound", "csv_row", "CSV_COLUMNS", "to_csv", "junit"]

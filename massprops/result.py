@@ -1,6 +1,6 @@
 """What :func:`massprops.mass_properties` returns: one input's :class:`Result`.
 
-Its :class:`~massprops.properties.MassProperties`, the checks and warnings,
+Its :class:`~massprops.model.properties.MassProperties`, the checks and warnings,
 and the quantities under flat read-only names (with trimesh's as aliases), a
 one-line ``repr`` and a notebook table.
 """
@@ -12,8 +12,8 @@ from dataclasses import field
 
 import numpy as np
 
-from .properties import MassProperties
-from .records import record
+from .model.properties import MassProperties
+from .model.records import record
 
 __all__ = ["Result"]
 

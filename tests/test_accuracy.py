@@ -14,7 +14,7 @@ from massprops.validation import accuracy, solids
 from massprops.compute import mass_properties
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
-from massprops.principal import axis_angle_bounds, physical_checks, principal
+from massprops.model.principal import axis_angle_bounds, physical_checks, principal
 
 
 # -- the extreme-case table --------------------------------------------------

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import massprops
-from massprops.errors import ArgumentTypeError, MassPropsError, OptionError
+from massprops.model.errors import ArgumentTypeError, MassPropsError, OptionError
 from massprops.validation import solids
 from oracle import exact_properties
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import massprops
-from massprops.errors import ArgumentTypeError
+from massprops.model.errors import ArgumentTypeError
 from massprops.io.stl import write_binary
 from massprops.validation import solids
 from oracle import exact_properties, within_bounds

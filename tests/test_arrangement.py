@@ -16,7 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 from massprops.cli import main
 from massprops.compute import mass_properties
-from massprops.errors import OpenMeshError
+from massprops.model.errors import OpenMeshError
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
 from massprops.validation import solids

@@ -305,7 +305,7 @@ def test_usage_and_option_errors(runner, corpus, tmp_path, monkeypatch):
 @hsettings(max_examples=60, deadline=None)
 @given(st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=40))
 def test_error_messages_are_one_csv_line_that_reads_back(text):
-    from massprops.errors import MeshFormatError
+    from massprops.model.errors import MeshFormatError
     message = batch.error_message(MeshFormatError("bad " + text, fix="fix, \"it\"\n now"))
     line = batch.record({"file": "a,b.stl"}, "error", message, "csv")
     assert line.endswith("\n") and len(line.splitlines()) == 1

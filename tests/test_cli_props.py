@@ -54,7 +54,7 @@ def test_text_output_shows_bounds(runner, bracket):
 def test_pose_options(runner, bracket):
     [plain] = props_json(runner, bracket)
     [posed] = props_json(runner, bracket, "--rotate", "euler:zyx:30,-20,45", "--translate", 1, 2, 3)
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     rotation = Pose.from_euler("zyx", [30, -20, 45]).rotation
     com, inertia = np.array(plain["center_of_mass"]), np.array(plain["inertia_com"])
     np.testing.assert_allclose(posed["center_of_mass_global"], rotation @ com + [1, 2, 3], rtol=1e-14)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import massprops.cli
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 
 # A 1 × 2 × 3 box, density 1: mass 6, J' = diag(6.5, 5, 2.5) exactly.
 BOX_INERTIA = np.diag([6.5, 5.0, 2.5])

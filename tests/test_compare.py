@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 import massprops.cli
 from massprops.validation import solids
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.io import obj
 
 QUANTITIES = ("volume", "center_of_mass", "inertia_com", "principal_moments")

@@ -17,7 +17,7 @@ from hypothesis import given, settings, strategies as st
 
 from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.errors import MeshFormatError
+from massprops.model.errors import MeshFormatError
 from massprops.io import read
 from massprops.io.stl import write_binary
 
@@ -285,7 +285,7 @@ def test_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path, ext):
 _READ_WHILE_TRUNCATED = """
 import sys
 from massprops.core import read_stl
-from massprops.errors import MassPropsError
+from massprops.model.errors import MassPropsError
 for _ in range(40):
     try:
         read_stl(sys.argv[1])

@@ -16,7 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 from massprops.validation import solids
 from massprops.core import edge_summary, face_groups, shells, weld_corners, weld_indexed
-from massprops.errors import MassPropsError
+from massprops.model.errors import MassPropsError
 from massprops.mesh import TriangleMesh, check_mesh
 
 

@@ -10,7 +10,7 @@ from hypothesis import given, settings, strategies as st
 from conftest import random_rotation
 from massprops import dynamics, frames
 from massprops.dynamics.closed_form import jacobi, period, polhode, torque_free
-from massprops.errors import OptionError
+from massprops.model.errors import OptionError
 
 SPLIT = ("split2", "split4", "split6")
 

@@ -18,7 +18,7 @@ from massprops import report
 from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.mesh.surface import TriangleMesh
-from massprops.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
+from massprops.model.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
 
 seeds = st.integers(0, 2 ** 32 - 1)
 
@@ -55,7 +55,7 @@ def test_largest_squared_distance_is_the_rounded_per_vertex_maximum(seed):
 @settings(max_examples=20, deadline=None)
 @given(seeds, st.integers(1, 64))
 def test_largest_squared_distance_is_the_same_in_blocks(seed, block):
-    import massprops.resolution as resolution
+    import massprops.model.resolution as resolution
     points, center = _random_points(seed)
     original = resolution._BLOCK
     resolution._BLOCK = block          # many small blocks, the last one partial

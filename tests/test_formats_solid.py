@@ -10,7 +10,7 @@ import pytest
 
 from massprops.cli import main
 from massprops.compute import mass_properties
-from massprops.errors import MeshFormatError
+from massprops.model.errors import MeshFormatError
 from massprops.mesh.volume import VolumeMesh
 from massprops.validation import solids
 from oracle import exact_properties

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 import massprops
-from massprops.errors import MassPropsError
+from massprops.model.errors import MassPropsError
 from massprops.io.stl import write_binary
 from massprops.validation import solids
 

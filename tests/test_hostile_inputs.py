@@ -16,7 +16,7 @@ import pytest
 
 import massprops
 from massprops.cli import main
-from massprops.errors import MeshFormatError, MeshGeometryError, MeshReadError, OutputError
+from massprops.model.errors import MeshFormatError, MeshGeometryError, MeshReadError, OutputError
 from massprops.validation import solids
 
 

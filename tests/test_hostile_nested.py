@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import massprops
 import untrusted_files as files
 from massprops.cli import main
-from massprops.errors import MassPropsError, MeshFormatError, MeshGeometryError, OptionError
+from massprops.model.errors import MassPropsError, MeshFormatError, MeshGeometryError, OptionError
 
 CASE_SECONDS = 20
 

@@ -14,7 +14,7 @@ import pytest
 
 import massprops
 from massprops.cli import main
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.io.stl import write_binary
 from massprops.validation import solids
 

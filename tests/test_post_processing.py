@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops.errors import MeshGeometryError
+from massprops.model.errors import MeshGeometryError
 from massprops.core import Moments
-from massprops.properties import MassProperties, unit_factor
+from massprops.model.properties import MassProperties, unit_factor
 
 _U = 2.0 ** -53
 
@@ -165,7 +165,7 @@ def test_centred_sums_match(first):
 @settings(max_examples=100, deadline=None)
 @given(st.integers(0, 2 ** 32 - 1), st.sampled_from([None, "in"]), materials)
 def test_rational_reference_points_match(seed, unit, material):
-    # A stretched part's reference point is exact rationals (massprops.scene.graph.stretched_moments).
+    # A stretched part's reference point is exact rationals (massprops.model.stretch.stretched_moments).
     rng = np.random.default_rng(seed)
     base = random_moments(rng, 2)
     reference = tuple(Fraction(int(rng.integers(-10 ** 9, 10 ** 9)), int(rng.integers(1, 10 ** 6))) for _ in range(3))

@@ -10,7 +10,7 @@ from conftest import random_rotation
 from massprops.validation import solids
 from massprops.compute import mass_properties
 from massprops.mesh.surface import TriangleMesh
-from massprops.principal import principal
+from massprops.model.principal import principal
 
 
 def check_conventions(result, tensor):

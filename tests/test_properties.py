@@ -7,8 +7,8 @@ from hypothesis import given, settings, strategies as st
 from conftest import random_rotation
 from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.errors import OptionError
-from massprops.frames import Pose, parallel_axis
+from massprops.model.errors import OptionError
+from massprops.model.frames import Pose, parallel_axis
 from massprops.mesh.surface import TriangleMesh
 
 BRACKET = solids.l_bracket(3.0, 1.0, 0.7)

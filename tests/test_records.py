@@ -1,11 +1,11 @@
-"""``massprops.records.record`` behaves as ``dataclass(frozen=True)`` does, without writing code."""
+"""``massprops.model.records.record`` behaves as ``dataclass(frozen=True)`` does, without writing code."""
 
 import dataclasses
 from dataclasses import FrozenInstanceError, dataclass, field
 
 import pytest
 
-from massprops.records import record
+from massprops.model.records import record
 
 
 def _pair(**options):

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 import massprops.cli
 from massprops.validation import solids
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.io.stl import write_binary
 from massprops.validation.reference_set import reference_solids, write_reference_set
 

@@ -88,7 +88,7 @@ def _slack(tensor):
 @given(st.floats(0.05, 2.0), st.floats(0.05, 2.0), st.floats(1e-12, 1e-7),
        st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(0.1, 1)))
 def test_nudge_makes_a_thin_plate_valid_by_a_few_ulps(a, b, thickness, quaternion):
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     mass = 1.0
     plate = mass / 12 * np.diag([b * b + thickness ** 2, a * a + thickness ** 2, a * a + b * b])
     rotation = Pose.from_quat(quaternion).rotation

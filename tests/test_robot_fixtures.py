@@ -202,7 +202,7 @@ def mujoco_and_ours(robots):
 
 def test_mjcf_agrees_with_mujocos_own_exact_compile(mujoco_and_ours):
     # MuJoCo keeps float32 mesh vertices: agreement to ~1e-7 relative.
-    from massprops.frames import quat_to_matrix
+    from massprops.model.frames import quat_to_matrix
     model, ours = mujoco_and_ours
     compared = 0
     for b in range(1, model.nbody):
@@ -232,7 +232,7 @@ def test_mjcf_primitives_agree_with_mujoco_to_rounding(mujoco_and_ours):
 
 
 def test_the_robot_total_at_zero_and_at_a_joint_value(plain_robots):
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     directory, expected = plain_robots
     path = _model(directory, expected, "urdf")
     # The declared masses (the unscaled mesh's own would be a billion times too heavy and hide the rest).

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from massprops.errors import MassPropsError
+from massprops.model.errors import MassPropsError
 from massprops.io import obj
 from massprops.robot.analyze import RobotSettings, analyze
 from massprops.robot.load import load_model

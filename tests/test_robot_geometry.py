@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.io import obj
 from massprops.robot.geometry import geometry_properties, primitive_bounds
 from massprops.robot.links import MassSettings, link_properties
@@ -77,7 +77,7 @@ def test_primitive_bounds_contain_the_solid_and_touch_it():
 
 
 def test_bad_primitive_sizes_are_refused():
-    from massprops.errors import MassPropsError
+    from massprops.model.errors import MassPropsError
     for size in ({"size": (0.1, 0.0, 0.1)}, {"size": (0.1, -0.2, 0.1)}, {"size": (0.1, float("nan"), 0.1)}):
         with pytest.raises(MassPropsError, match="not positive"):
             geometry_properties(Geometry("box", "collision", "g", size=size, where="collision 'g'"), 1.0)

@@ -7,7 +7,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.robot.links import MassSettings, link_properties
 from massprops.robot.model import Geometry, Link, RobotModel, rpy_rotation
 from massprops.validation import solids

@@ -9,7 +9,7 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.robot.links import MassSettings, link_properties
 from massprops.robot.model import Geometry, Link, RobotModel, rpy_rotation
 

@@ -9,10 +9,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import massprops.cli
+from massprops.model.combine import combine_parts
 from massprops.scene import assembly
 from massprops.validation import solids
 from massprops.compute import mass_properties
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.io.stl import write_binary
 
 U = 2.0 ** -53
@@ -272,14 +273,14 @@ def test_rotation_forms_round_trip(tmp_path_factory, euler, sequence):
 
 def test_only_what_is_asked_is_computed(tmp_path, monkeypatch):
     import massprops.core
-    import massprops.properties
+    import massprops.model.properties
     _write(tmp_path, "slab.stl", solids.box(*BOXES["slab"]))
     _write(tmp_path, "block.stl", solids.box(*BOXES["block"]))
     orders, eigen = [], []
-    real_integrate, real_principal = massprops.core.integrate, massprops.properties.principal
+    real_integrate, real_principal = massprops.core.integrate, massprops.model.properties.principal
     monkeypatch.setattr(massprops.core, "integrate",
                         lambda *a, order=2, **k: orders.append(order) or real_integrate(*a, order=order, **k))
-    monkeypatch.setattr(massprops.properties, "principal", lambda *a, **k: eigen.append(1) or real_principal(*a, **k))
+    monkeypatch.setattr(massprops.model.properties, "principal", lambda *a, **k: eigen.append(1) or real_principal(*a, **k))
     base = TWO_PARTS.format(angles=EULER["angles"], sequence=EULER["sequence"])
     mass_only = _toml(tmp_path / "mass.toml", base + '\n[report]\nquantities = ["mass"]\nprincipal = "none"\n')
     result = assembly.compute_scene(assembly.load_scene(mass_only))
@@ -567,7 +568,7 @@ def test_npy_instances_equal_csv_instances(tmp_path):
         totals[name] = assembly.compute_scene(scene).total
     assert np.array_equal(totals["blocks.npy"].inertia_com, totals["blocks.csv"].inertia_com)
     assert not np.allclose(totals["moved.npy"].inertia_com, totals["blocks.csv"].inertia_com)
-    from massprops.errors import MeshFormatError
+    from massprops.model.errors import MeshFormatError
     with pytest.raises(MeshFormatError, match=r"part 'b': an array of shape \(18,\)") as caught:
         assembly.load_scene(_toml(tmp_path / "s.toml", '[parts.b]\nmesh = "block.stl"\ninstances = "flat.npy"\n'))
     assert caught.value.path == str(tmp_path / "flat.npy")
@@ -586,10 +587,10 @@ def test_sample_flange_lists_its_bolts_in_a_csv_file(runner):
 
 
 def test_parts_without_mass_have_no_center_of_mass():
-    from massprops.errors import MeshGeometryError
-    from massprops.properties import MassProperties
+    from massprops.model.errors import MeshGeometryError
+    from massprops.model.properties import MassProperties
     part = massprops.mass_properties(solids.box()).properties
     massless = MassProperties(part.volume, 0.0, 0.0, part.surface_area, part.center_of_mass, part.inertia_com * 0.0,
                               part.error)
     with pytest.raises(MeshGeometryError, match="no center of mass"):
-        assembly.combine_parts([massless, massless])
+        combine_parts([massless, massless])

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from massprops.compute import mass_properties
-from massprops.errors import MeshGeometryError, OpenMeshError
+from massprops.model.errors import MeshGeometryError, OpenMeshError
 from massprops.io import obj as obj_io
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh

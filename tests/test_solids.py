@@ -14,7 +14,7 @@ import massprops.cli
 from massprops.validation import analytic, solids
 from massprops.compute import mass_properties
 from massprops.validation.exact import exact_properties
-from massprops.frames import Pose
+from massprops.model.frames import Pose
 from massprops.validation.reference_set import reference_solids
 from oracle import rational_moments
 

@@ -12,7 +12,7 @@ import pytest
 
 from massprops.validation import solids
 from massprops.core import thread_count
-from massprops.errors import OptionError
+from massprops.model.errors import OptionError
 from massprops.io.stl import write_binary
 
 HEAVY = ("trimesh", "scipy", "meshio", "matplotlib", "plotly", "dask", "manifold3d", "mujoco", "pymeshlab")
@@ -51,7 +51,7 @@ def test_a_bad_binary_stl_also_fails_without_heavy_imports(tmp_path):
 
 
 # Source text run with exec while importing massprops and its CLI: a dataclass writes and compiles
-# its methods this way (about 0.3 ms each), which start-up does without (massprops.records).
+# its methods this way (about 0.3 ms each), which start-up does without (massprops.model.records).
 GENERATED = """
 import builtins, json, sys
 import numpy, click

@@ -61,7 +61,7 @@ def _part(tmp_path, mesh, name="part.stl", **options):
 
 
 def test_the_drawn_box_of_a_rotated_cuboid_is_the_cuboid_and_its_axes_the_principal_axes(tmp_path):
-    from massprops.frames import Pose
+    from massprops.model.frames import Pose
     from massprops.view.picture import part_picture
     rotation, shift = random_rotation(7), np.array([3.0, -1.0, 2.0])
     size = np.array([1.0, 2.0, 4.0])

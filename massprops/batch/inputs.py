@@ -12,7 +12,7 @@ import glob
 import os
 import re
 
-from ..errors import MassPropsError, MeshReadError
+from ..model.errors import MassPropsError, MeshReadError
 
 __all__ = ["expand_inputs"]
 

@@ -16,7 +16,7 @@ import os
 from contextlib import contextmanager
 
 from .. import report
-from ..errors import OutputError
+from ..model.errors import OutputError
 
 __all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_error"]
 

@@ -27,11 +27,11 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from ..errors import MassPropsError, MeshReadError, OptionError, printable, render_options
+from ..model.errors import MassPropsError, MeshReadError, OptionError, printable, render_options
 from .inputs import expand_inputs
 from .report import ReportWriter, file_stat, is_error, plan, record, state_path
 from .workers import TIMED_OUT, WORKER_FAILED, run_workers
-from ..frames import Pose
+from ..model.frames import Pose
 
 __all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "DEFAULT_TIMEOUT", "expand_inputs", "run_one",
            "run_chunk", "run_batch", "state_path", "default_jobs"]

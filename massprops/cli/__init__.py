@@ -47,7 +47,7 @@ class LazyGroup(click.Group):
             finally:
                 sys.stdout.flush()
         except OSError as exc:
-            from ..errors import MassPropsError
+            from ..model.errors import MassPropsError
             if isinstance(exc, MassPropsError):
                 raise
             _output_failed(exc)

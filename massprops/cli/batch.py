@@ -105,7 +105,7 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     """
     options.refuse_conflicts()
     from ..batch import run as batch_lib
-    from ..errors import MassPropsError
+    from ..model.errors import MassPropsError
 
     if output == "-":
         output = None

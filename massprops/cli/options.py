@@ -4,7 +4,7 @@ Every option value is checked here, by click, before any file is read: a
 bad one is one usage error (exit 2), not one error per file.  Numbers must be
 finite, densities and thicknesses positive, rotations proper.
 
-Library code raises :class:`massprops.errors.MassPropsError`; here, at the
+Library code raises :class:`massprops.model.errors.MassPropsError`; here, at the
 edge, it becomes one line on stderr (``error: FILE: what — fix``, options
 spelled as options) and an exit code.  Set ``MASSPROPS_DEBUG=1`` to see
 tracebacks of unexpected errors.
@@ -19,7 +19,7 @@ import sys
 
 import click
 
-from ..errors import MassPropsError, printable
+from ..model.errors import MassPropsError, printable
 
 UNIT_CHOICES = ["m", "cm", "mm", "um", "in", "ft"]
 
@@ -100,14 +100,14 @@ class Command(click.Command):
 
 
 class Rotation(click.ParamType):
-    """A rotation given as text (see :meth:`massprops.frames.Pose.parse`): its proper rotation matrix."""
+    """A rotation given as text (see :meth:`massprops.model.frames.Pose.parse`): its proper rotation matrix."""
 
     name = "ROTATION"
 
     def convert(self, value, param, ctx):
         if not isinstance(value, str):
             return value
-        from ..frames import Pose
+        from ..model.frames import Pose
         try:
             return Pose.parse(value).rotation
         except MassPropsError as exc:
@@ -312,7 +312,7 @@ def pose_from_options(rotation, translate):
     """The Pose that ``--rotate`` (a checked rotation matrix or None) and ``--translate`` describe."""
     import numpy as np
 
-    from ..frames import Pose
+    from ..model.frames import Pose
     translation = np.asarray(translate or (0.0, 0.0, 0.0), dtype=float)
     return Pose(translation=translation) if rotation is None else Pose(rotation, translation)
 
@@ -338,13 +338,13 @@ def echo_error(message):
 
 def warn(message):
     """One warning line on stderr, options spelled as options."""
-    from ..errors import render_options
+    from ..model.errors import render_options
     click.echo(f"warning: {render_options(message, 'cli')}", err=True)
 
 
 def warn_units(density, unit, declared, *, mixed=False):
     """Warn (once per run) of a density that looks like a unit mistake, and of a report mixing units."""
-    from ..density_units import density_warnings, mixed_units_warning
+    from ..model.density_units import density_warnings, mixed_units_warning
     messages = density_warnings(density, unit, declared)
     if mixed:
         messages.append(mixed_units_warning(unit, declared))

@@ -110,7 +110,7 @@ def _compare(expected, rtol, atol, junit):
 
 
 def _computed(mass_properties, row, errors):
-    from ..errors import MassPropsError
+    from ..model.errors import MassPropsError
 
     try:
         return mass_properties(row.path, density=row.density, unit=row.unit)

@@ -266,7 +266,7 @@ def write(model, output, in_place, links_glob, all_links, frame, expand, **kwarg
             shutil.copy2(path, path + ".bak")
         with open(path, "wb") as handle:
             handle.write(data)
-    from ..errors import printable, render_options
+    from ..model.errors import printable, render_options
     for record in result.written:
         note = f"; {record['nudge_note']}" if record.get("nudge_note") else ""
         where = f" in {record['file']}" if in_place and record.get("file") and record["file"] != main else ""

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from ..errors import MeshGeometryError
+from ..model.errors import MeshGeometryError
 from . import _core
 
 __all__ = ["reference_frame", "Frame", "frame_of", "check_box_range"]

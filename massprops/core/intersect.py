@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ..records import record
+from ..model.records import record
 from . import _core
 from .arrays import as_points
 from .frame import frame_of

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..records import record
+from ..model.records import record
 from . import _core
 from .arrays import as_indices, as_points
 from .frame import frame_of

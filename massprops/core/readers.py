@@ -4,7 +4,7 @@ Both readers refuse anything that is not a regular file before reading it (a
 FIFO never blocks), read with ``pread`` into bounded buffers (a file that
 shrinks while it is read is an error, not a crash), and allocate nothing a
 header claims unless the file's size can hold it.  Their errors become
-:class:`massprops.errors.MeshFormatError` naming the file, the line where it
+:class:`massprops.model.errors.MeshFormatError` naming the file, the line where it
 applies, and a fix.
 """
 
@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..model.errors import MeshFormatError
 from . import _core
 from .threads import thread_count
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from ..errors import OptionError
+from ..model.errors import OptionError
 
 __all__ = ["thread_count", "threads_for"]
 

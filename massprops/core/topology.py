@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..records import record
+from ..model.records import record
 from . import _core
 from .arrays import as_indices
 from .threads import threads_for

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import OptionError
-from ..frames import quat_conjugate, quat_from_matrix, quat_multiply, quat_to_matrix
-from ..principal import principal
+from ..model.errors import OptionError
+from ..model.frames import quat_conjugate, quat_from_matrix, quat_multiply, quat_to_matrix
+from ..model.principal import principal
 
 __all__ = ["RigidBody", "Trajectory", "trajectory_from_principal", "angular_momentum", "kinetic_energy",
            "euler_rhs"]

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..frames import axis_angle_quat, quat_conjugate, quat_from_matrix, quat_multiply
+from ..model.frames import axis_angle_quat, quat_conjugate, quat_from_matrix, quat_multiply
 from .body import RigidBody, trajectory_from_principal
 
 __all__ = ["jacobi", "Polhode", "polhode", "torque_free", "period"]

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import OptionError
-from ..frames import quat_conjugate, quat_from_matrix, quat_multiply, quat_to_matrix
+from ..model.errors import OptionError
+from ..model.frames import quat_conjugate, quat_from_matrix, quat_multiply, quat_to_matrix
 from .body import RigidBody, trajectory_from_principal
 
 __all__ = ["simulate", "trajectory_error", "work_precision",

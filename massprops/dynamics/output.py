@@ -6,7 +6,7 @@ import contextlib
 
 import numpy as np
 
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 from ..plotting import pyplot
 from .integrators import trajectory_error
 

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from ..frames import axis_angle_quat, quat_multiply, quat_to_matrix
+from ..model.frames import axis_angle_quat, quat_multiply, quat_to_matrix
 
 __all__ = ["integrate_split"]
 

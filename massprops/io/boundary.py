@@ -2,7 +2,7 @@
 
 Whatever such a reader does with a bad file -- raise any exception, call
 ``sys.exit`` (meshio does, after printing to stdout and stderr), print stray
-lines, warn -- becomes one :class:`massprops.errors.MeshFormatError` naming the
+lines, warn -- becomes one :class:`massprops.model.errors.MeshFormatError` naming the
 file, and nothing it prints reaches our stdout (a CSV report on stdout must
 not start with meshio's blank lines).
 """
@@ -13,7 +13,7 @@ import contextlib
 import io
 import warnings
 
-from ..errors import MassPropsError, MeshFormatError, reason as reason_of
+from ..model.errors import MassPropsError, MeshFormatError, reason as reason_of
 
 __all__ = ["third_party"]
 

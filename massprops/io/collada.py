@@ -29,7 +29,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..model.errors import MeshFormatError
 from .boundary import third_party
 from .graph import Graph, check_totals, placed_mesh, too_deep
 from .inputs import graph_limits

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MeshFormatError, option
+from ..model.errors import MeshFormatError, option
 from ..mesh.surface import TriangleMesh
 
 __all__ = ["Graph", "check_totals", "placed_mesh", "MAX_TRIANGLES", "too_deep"]

@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 import stat
 
-from ..errors import MeshFormatError, MeshReadError, OptionError, option
+from ..model.errors import MeshFormatError, MeshReadError, OptionError, option
 
 __all__ = ["check_input", "check_no_holes", "check_archive", "unpack_limit", "file_size_text", "graph_limits",
            "UNPACK_RATIO", "UNPACK_FLOOR", "MAX_INSTANCES", "MAX_DEPTH"]

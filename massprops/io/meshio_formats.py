@@ -22,7 +22,7 @@ import threading
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..model.errors import MeshFormatError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
 from .inputs import file_size_text, unpack_limit

@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from ..errors import MeshFormatError
+from ..model.errors import MeshFormatError
 from ..mesh.surface import TriangleMesh
 from .registry import register_format
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 
-from ..errors import MeshFormatError, MeshReadError
+from ..model.errors import MeshFormatError, MeshReadError
 from .inputs import check_archive, check_input, check_no_holes, graph_limits
 
 __all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIONS", "UNSUPPORTED"]

@@ -27,7 +27,7 @@ from array import array
 
 import numpy as np
 
-from ..errors import MeshFormatError, reason
+from ..model.errors import MeshFormatError, reason
 from .graph import Graph, check_totals, placed_mesh, too_deep
 from .inputs import graph_limits
 from .registry import register_format

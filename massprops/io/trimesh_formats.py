@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from ..errors import MeshFormatError, MeshReadError
+from ..model.errors import MeshFormatError, MeshReadError
 from ..mesh.surface import TriangleMesh
 from .boundary import third_party
 from .inputs import check_input, file_size_text, unpack_limit

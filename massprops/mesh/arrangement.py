@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 
 __all__ = ["Arrangement", "ArrangementError", "arrange"]
 

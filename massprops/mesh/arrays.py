@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-from ..errors import ArgumentTypeError, OptionError
+from ..model.errors import ArgumentTypeError, OptionError
 from .surface import TriangleMesh
 
 __all__ = ["as_mesh", "mesh_from_arrays", "mesh_from_triangles", "is_path", "SOURCE_FORMS"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import OpenMeshError
+from ..model.errors import OpenMeshError
 from ..core import edge_summary
 from .surface import distinct_faces
 

@@ -26,8 +26,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..core import U, edge_summary, integrate, shells
-from ..errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
-from ..properties import MassProperties
+from ..model.errors import MeshGeometryError, OpenMeshError, OptionError, WindingError
+from ..model.properties import MassProperties
 from .surface import TriangleMesh, check_mesh, distinct_faces
 
 __all__ = ["shell_moments", "shell_mass_properties"]

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..errors import MeshGeometryError
+from ..model.errors import MeshGeometryError
 from .solid import Solid, shell_six_volumes, swept_volume
 
 __all__ = ["solid_of", "resolve_shells", "joined_groups"]

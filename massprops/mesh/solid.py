@@ -34,8 +34,8 @@ from dataclasses import field
 
 import numpy as np
 
-from ..records import record
-from ..errors import MeshGeometryError
+from ..model.records import record
+from ..model.errors import MeshGeometryError
 from ..core import edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 

@@ -16,10 +16,10 @@ from dataclasses import field
 
 import numpy as np
 
-from ..records import record
+from ..model.records import record
 from ..core import distinct_faces, edge_summary, face_groups, shells, weld_corners, weld_indexed
-from ..errors import MeshGeometryError, OpenMeshError, WindingError
-from ..frames import matvec
+from ..model.errors import MeshGeometryError, OpenMeshError, WindingError
+from ..model.frames import matvec
 
 __all__ = ["TriangleMesh", "MeshChecks", "check_mesh", "check_shells", "distinct_faces", "unused_note"]
 

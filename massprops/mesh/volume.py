@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import U as _U, face_groups, integrate, shells, tetra_determinants
-from ..errors import MeshGeometryError, OptionError
-from ..properties import MassProperties
+from ..model.errors import MeshGeometryError, OptionError
+from ..model.properties import MassProperties
 from .nonplanar import nonplanar_quads
 
 __all__ = ["VolumeMesh", "CELL_FACES", "parse_density_map", "cell_densities", "volume_mass_properties"]

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 
-from ..errors import MassPropsError, render_options
+from ..model.errors import MassPropsError, render_options
 from .check import Tolerances, compare, declared_validity, diagnose, MESH_SCALES
 from .geometry import parse_on_open
 from .links import MassSettings, assumed_density_warning, link_properties, scaled_to_mass
@@ -113,7 +113,7 @@ def analyze(path, settings):
     return _spelled(_analyzed(prepared, settings, start), settings.option_style)
 
 
-# The report's sentences, where messages name options as placeholders (massprops.errors).
+# The report's sentences, where messages name options as placeholders (massprops.model.errors).
 _SENTENCES = frozenset({"message", "warnings", "mass_source", "density_source", "notes"})
 
 

@@ -63,7 +63,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..frames import Pose
+from ..model.frames import Pose
 from .model import ELEMENTS, tensor_from_elements
 
 __all__ = ["Tolerances", "Validity", "declared_validity", "Comparison", "compare", "diagnose", "DIAGNOSES", "CAUSES",

@@ -25,7 +25,7 @@ import os
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 
-from ..errors import MeshReadError, OptionError
+from ..model.errors import MeshReadError, OptionError
 
 __all__ = ["RobotConfig", "load_config", "POLICIES"]
 

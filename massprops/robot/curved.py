@@ -122,7 +122,7 @@ def raw_of(props):
 
 def props_of(raw, density, area):
     """:class:`MassProperties` (identity pose, link frame) of volume moments at ``density``, bounds propagated."""
-    from ..properties import ErrorBounds, MassProperties
+    from ..model.properties import ErrorBounds, MassProperties
     v, f, s = raw.volume, raw.first, raw.second
     ev, ef, es = raw.e_volume, raw.e_first, raw.e_second
     low = v - ev

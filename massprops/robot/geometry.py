@@ -24,7 +24,7 @@ capsule  πr²L + 4/3 πr³ 0                              m_c(3r²+L²)/12 + m_
 **Meshes** are read by :func:`massprops.io.read` (any format the library
 reads), checked and integrated once per file (:func:`massprops.compute.checked_moments`),
 then mapped by ``diag(scale)`` exactly on the raw moments
-(:func:`massprops.scene_graph.stretched_moments`: ``|det P|`` keeps a mirrored
+(:func:`massprops.model.stretch.stretched_moments`: ``|det P|`` keeps a mirrored
 mesh, whose winding the negative determinant flips, a positive solid).
 """
 
@@ -38,8 +38,8 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..errors import MassPropsError, OpenMeshError, OptionError, WindingError, option
-from ..properties import ErrorBounds, MassProperties, unit_factor
+from ..model.errors import MassPropsError, OpenMeshError, OptionError, WindingError, option
+from ..model.properties import ErrorBounds, MassProperties, unit_factor
 from .model import PRIMITIVES
 from .units import mesh_overlap_in_si
 
@@ -290,7 +290,7 @@ def _vertex_bounds(vertices, scale, pose, stretch=None):
 def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen(), limits=()):
     """A mesh geometry's properties (placed at its pose) and box: ``(props, bounds, triangles, warnings, checks,
     surface)``."""
-    from ..scene.graph import stretched_area2, stretched_moments
+    from ..model.stretch import stretched_area2, stretched_moments
     scale = geometry.scale or (1, 1, 1)
     if any(float(s) == 0 or not math.isfinite(float(s)) for s in scale):
         raise MassPropsError(f"{geometry.where}: mesh scale {tuple(map(float, scale))} has a zero or non-finite "

@@ -6,7 +6,7 @@ in order (:class:`massprops.robot.model.Joint`): a rotation by ``q − reference
 about the joint's axis through its point, or a translation along the axis.
 Joints that take no single value (fixed, floating, planar, ball, free) stay
 at their zero.  A joint not given a value is at 0 (for MJCF: ``qpos = 0``,
-which differs from the pose the file draws when the joint has a ``ref``).  The total is :func:`massprops.scene.combine_parts` of the
+which differs from the pose the file draws when the joint has a ``ref``).  The total is :func:`massprops.model.combine.combine_parts` of the
 links placed at those poses: the scene machinery's centred parallel-axis sums.
 """
 
@@ -16,9 +16,9 @@ import math
 
 import numpy as np
 
-from ..errors import OptionError, option
-from ..frames import Pose, axis_angle_quat, quat_to_matrix
-from ..scene import combine_parts
+from ..model.errors import OptionError, option
+from ..model.frames import Pose, axis_angle_quat, quat_to_matrix
+from ..model.combine import combine_parts
 
 __all__ = ["parse_joint_values", "link_poses", "robot_total"]
 

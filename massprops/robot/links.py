@@ -16,7 +16,7 @@ proportion to the masses 1–5 give; ``density`` is then the implied one.
 
 Several geometries of a link are combined by :func:`massprops.robot.overlap.link_solid`:
 their union, each point counted once (the parallel-axis sums of
-:func:`massprops.scene.combine_parts` where they do not overlap).
+:func:`massprops.model.combine.combine_parts` where they do not overlap).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 from .geometry import OnOpen, geometry_properties
 from .overlap import link_solid
 

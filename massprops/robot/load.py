@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import re
 
-from ..errors import MeshReadError
+from ..model.errors import MeshReadError
 from .model import RobotFormatError
 
 __all__ = ["load_model", "detect_format", "FORMATS"]

@@ -30,8 +30,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MassPropsError, OptionError
-from ..frames import Pose, quat_to_matrix
+from ..model.errors import MassPropsError, OptionError
+from ..model.frames import Pose, quat_to_matrix
 from .model import Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, tensor_from_elements
 from .xmlspans import parse_with_spans
 

@@ -1,6 +1,6 @@
 """The in-memory robot model every format reader produces: links, their geometry and declared inertials, joints.
 
-Frames (see :mod:`massprops.frames`): a pose maps a point of the inner frame
+Frames (see :mod:`massprops.model.frames`): a pose maps a point of the inner frame
 to the outer one, ``x = A x' + t``.  A geometry's ``pose`` is in its link's
 frame; a declared inertial's ``center_of_mass`` and ``inertia_com`` are in the
 link frame and link axes (the format's own inertial frame already applied);
@@ -19,8 +19,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MassPropsError
-from ..frames import Pose
+from ..model.errors import MassPropsError
+from ..model.frames import Pose
 
 __all__ = ["Geometry", "Inertial", "Link", "Joint", "RobotModel", "RobotFormatError", "Decimal",
            "rpy_rotation", "rotation_rpy", "tensor_from_elements", "ELEMENTS", "PRIMITIVES"]

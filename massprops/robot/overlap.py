@@ -50,9 +50,9 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 from ..mesh.shells import joined_groups
-from ..scene import combine_parts
+from ..model.combine import combine_parts
 from .units import volume_text
 from .model import PRIMITIVES
 
@@ -337,7 +337,7 @@ def _united(link_name, members, repair):
     """``(parts, facts, warnings)`` for a group of meshes and boxes whose boxes meet (see the module docstring)."""
     from ..compute import checked_solid
     from ..mesh.solid import swept_volume, widened
-    from ..properties import MassProperties
+    from ..model.properties import MassProperties
     distinct, copies = _without_copies(members)
     facts, said = {}, []
     if copies:

@@ -6,7 +6,7 @@ import csv
 import io
 import os
 
-from ..errors import printable
+from ..model.errors import printable
 
 __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
 

@@ -61,7 +61,7 @@ import re
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from ..errors import MassPropsError, MeshReadError, option
+from ..model.errors import MassPropsError, MeshReadError, option
 
 __all__ = ["Resolution", "Resolver", "OutsideRootError", "AmbiguousPackageError", "ROS_VARIABLES",
            "GAZEBO_VARIABLES"]

@@ -33,8 +33,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import MassPropsError
-from ..frames import Pose
+from ..model.errors import MassPropsError
+from ..model.frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
 from .geometry import NO_VOLUME

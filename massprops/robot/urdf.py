@@ -20,8 +20,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import MassPropsError
-from ..frames import Pose
+from ..model.errors import MassPropsError
+from ..model.frames import Pose
 from .model import ELEMENTS, Decimal, Geometry, Inertial, Joint, Link, RobotFormatError, RobotModel, \
     rpy_rotation, tensor_from_elements
 from .geometry import NO_VOLUME

@@ -26,7 +26,7 @@ from fnmatch import fnmatchcase
 
 import numpy as np
 
-from ..errors import MassPropsError, OptionError, option
+from ..model.errors import MassPropsError, OptionError, option
 from .check import declared_validity
 from .model import Decimal, Inertial, rotation_rpy
 
@@ -120,7 +120,7 @@ def _element_text(model, mass, center, tensor, rotation, rpy, indent, unit, newl
             full = " ".join(e[k] for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
             lines = [f'<inertial pos="{xyz}" mass="{_text(mass)}" fullinertia="{full}"/>']
         else:
-            from ..frames import Pose
+            from ..model.frames import Pose
             quat = " ".join(_text(v) for v in Pose(rotation).as_quat())
             diagonal = " ".join(e[k] for k in ("ixx", "iyy", "izz"))
             lines = [f'<inertial pos="{xyz}" quat="{quat}" mass="{_text(mass)}" diaginertia="{diagonal}"/>']

@@ -35,7 +35,7 @@ import os
 import re
 from contextlib import contextmanager
 
-from ..errors import MassPropsError, OptionError, option
+from ..model.errors import MassPropsError, OptionError, option
 from .model import RobotFormatError
 
 __all__ = ["expand_xacro", "XacroExpressionError", "evaluate", "FUNCTIONS", "STRING_METHODS"]

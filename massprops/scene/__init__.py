@@ -5,8 +5,8 @@ one, :mod:`.assembly` computes every part and the total, and :mod:`.report`
 renders the result.
 """
 
-from .assembly import SceneResult, combine_parts, compute_scene, load_scene
+from .assembly import SceneResult, compute_scene, load_scene
 from .model import Frame, Part, Placements, ReportRequest, Scene
 
-__all__ = ["load_scene", "compute_scene", "combine_parts", "SceneResult", "Scene", "Part", "Placements", "Frame",
+__all__ = ["load_scene", "compute_scene", "SceneResult", "Scene", "Part", "Placements", "Frame",
            "ReportRequest"]

@@ -1,6 +1,6 @@
 """Assemblies: parts with meshes, materials and poses, from TOML or a GLB/glTF/3MF/COLLADA scene graph.
 
-Each part ``i`` has a pose ``(A_i, r_i)`` (see :mod:`massprops.frames`).  A mesh
+Each part ``i`` has a pose ``(A_i, r_i)`` (see :mod:`massprops.model.frames`).  A mesh
 used by several parts is read and integrated once; every instance reuses its
 centroidal tensor through ``J_Gi = A_i J_Gi' A_iᵀ`` and the parallel-axis
 terms.  The assembly's total is formed with centred formulas: each part's
@@ -14,7 +14,6 @@ compact lists of many instances held as arrays) and :mod:`massprops.scene.graph`
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from contextlib import contextmanager
@@ -23,13 +22,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..compute import QUANTITIES, checked_moments
-from ..core.rounding import U as _U
-from ..errors import MassPropsError, MeshFormatError, MeshGeometryError
-from ..frames import Pose, matmul, matvec, rotate_inertia
-from ..properties import ErrorBounds, MassProperties, unit_factor
+from ..model.errors import MassPropsError, MeshFormatError, MeshGeometryError
+from ..model.combine import combine_instances
+from ..model.frames import Pose
+from ..model.properties import MassProperties, unit_factor
 from .model import Scene
 
-__all__ = ["SceneResult", "load_scene", "compute_scene", "combine_parts"]
+__all__ = ["SceneResult", "load_scene", "compute_scene"]
 
 SCENE_EXTENSIONS = (".glb", ".gltf", ".3mf", ".dae")
 
@@ -121,7 +120,7 @@ def compute_scene(scene, *, repair=False, max_unpacked=None, max_instances=None,
     # Posed per-part objects only when parts are reported: the total works on arrays.
     parts = tuple(local[i].with_pose(Pose(rotation[k], translation[k])) for k, i in enumerate(index)) \
         if request.parts else ()
-    total = _combine(local, index, rotation, translation, request.unit) if request.total else None
+    total = combine_instances(local, index, rotation, translation, request.unit) if request.total else None
     principal = (len(parts) if "parts" in request.principal else 0) + (
         1 if total is not None and "total" in request.principal else 0)
     volume_forms = sum(1 for key in cache if records[key[0]].moments is None)
@@ -187,7 +186,7 @@ def _local_properties(part, records, unit, wanted, repair):
             return result.properties
         moments = record.moments
         if part.stretch is not None:
-            from .graph import stretched_area2, stretched_moments
+            from ..model.stretch import stretched_area2, stretched_moments
             try:
                 moments = stretched_moments(moments, part.stretch)
             except OverflowError:
@@ -197,113 +196,3 @@ def _local_properties(part, records, unit, wanted, repair):
                               if "surface_area" in wanted else 0.0)
         return MassProperties.from_moments(moments, density=part.density, mass=part.mass, unit=unit,
                                            path=record.key)
-
-
-def combine_parts(parts, poses=None, *, unit=None):
-    """The assembly of parts as one :class:`MassProperties` in global axes (identity pose).
-
-    ``parts`` are :class:`MassProperties`, placed at ``poses`` (a Pose each) or,
-    without ``poses``, at their own ``pose``.  See :func:`_combine`.
-    """
-    poses = [p.pose for p in parts] if poses is None else poses
-    rotation = np.array([pose.rotation for pose in poses])
-    translation = np.array([pose.translation for pose in poses])
-    return _combine(list(parts), np.arange(len(parts)), rotation, translation, unit)
-
-
-def _combine(local, index, rotation, translation, unit):
-    """The total of instances ``k`` of the parts ``local[index[k]]`` at poses ``(rotation[k], translation[k])``.
-
-    Masses and volumes add; the center of mass is the mass-weighted mean of the
-    instances' global centers, accumulated relative to the heaviest one's; the
-    inertia is ``Σ (A_k J_Gk' A_kᵀ + m_k (ρ_kᵀρ_k I − ρ_k ρ_kᵀ))`` with
-    ``ρ_k = r_k − r``.  Error bounds add the parts' bounds, propagated
-    through these formulas, and the rounding of the sums.  Everything is
-    array arithmetic over the instances.
-
-    Parameters
-    ----------
-    local : list of MassProperties
-        Distinct parts, local frames.
-    index : ndarray, shape (n,), int
-    rotation : ndarray, shape (n, 3, 3)
-    translation : ndarray, shape (n, 3)
-        Output units.
-    """
-    with np.errstate(over="ignore", invalid="ignore"):
-        total = _summed(local, index, rotation, translation, unit)
-    values = [total.volume, total.mass, total.surface_area, total.error.mass]
-    values += [bound for bound in (total.error.center_of_mass, total.error.inertia_com) if bound is not None]
-    for array in (total.center_of_mass, total.inertia_com):
-        values += [] if array is None else np.ravel(array).tolist()
-    if not all(map(math.isfinite, values)):
-        reach = float(np.abs(translation).max()) if translation.size else 0.0
-        raise MeshGeometryError(f"the assembly's totals overflow double precision (parts are placed up to "
-                                f"{reach:.3g} from the origin)",
-                                fix="place the parts nearer the origin, or give them in a larger length unit")
-    return total
-
-
-def _summed(local, index, rotation, translation, unit):
-    """:func:`_combine`'s sums, which may overflow (checked by the caller)."""
-    def per_instance(get):
-        return np.array([get(p) for p in local], dtype=float)[index]
-
-    def exact_sum(values):
-        return math.fsum(values.tolist())       # lists sum far faster than numpy scalars
-
-    mass, volume = per_instance(lambda p: p.mass), per_instance(lambda p: p.volume)
-    total_mass, total_volume = exact_sum(mass), exact_sum(volume)
-    gamma = (8 + int(index.size).bit_length()) * _U
-    err_mass_i = per_instance(lambda p: p.error.mass)
-    err_mass = exact_sum(err_mass_i) + gamma * total_mass
-    error = dict(volume=exact_sum(per_instance(lambda p: p.error.volume)) + gamma * total_volume, mass=err_mass)
-    com = inertia = None
-    if local[0].center_of_mass is not None:
-        if not total_mass > 0:
-            raise MeshGeometryError(f"the parts' total mass is {total_mass:g}: no center of mass",
-                                    fix="give the parts a positive density or mass")
-        com, inertia, error = _combine_moments(local, index, rotation, translation, mass, err_mass_i,
-                                               total_mass, gamma, error)
-    surface_area = exact_sum(per_instance(lambda p: p.surface_area))
-    return MassProperties(total_volume, total_mass, total_mass / total_volume, surface_area, com, inertia,
-                          ErrorBounds(**error), Pose(), unit)
-
-
-def _combine_moments(local, index, rotation, translation, mass, err_mass_i, total_mass, gamma, error):
-    position = matvec(rotation, np.array([p.center_of_mass for p in local])[index]) + translation
-    base = position[int(np.argmax(mass))]
-    com = base + _pairwise_sum((position - base) * mass[:, None]) / total_mass
-    rho = position - com
-    reach = np.abs(rho).max(axis=1)
-    # Rotations are orthonormal only to rounding; their defect scales what they carry.
-    defect = np.abs(matmul(rotation, rotation.transpose(0, 2, 1)) - np.eye(3)).max(axis=(1, 2))
-    err_position = np.array([p.error.center_of_mass for p in local])[index] * (1.8 + defect) + 4 * _U * (
-        np.abs(position).max(axis=1))
-    err_com = float(mass @ err_position + err_mass_i @ reach) / (total_mass - error["mass"]) * 1.01 + gamma * float(
-        np.abs(position).max() + np.abs(com).max())
-    error["center_of_mass"] = err_com
-    if local[0].inertia_com is None:
-        return com, None, error
-    local_inertia = np.array([p.inertia_com for p in local])
-    terms = rotate_inertia(local_inertia[index], rotation) - mass[:, None, None] * (
-        rho[:, :, None] * rho[:, None, :])
-    terms[:, range(3), range(3)] += (mass * np.einsum("ni,ni->n", rho, rho))[:, None]
-    inertia = _pairwise_sum(terms.reshape(-1, 9)).reshape(3, 3)
-    size = np.abs(local_inertia).max(axis=(1, 2))[index]
-    # Σ m_i P(r_i − c̃) = Σ m_i P(r_i − c) + M P(c − c̃) since Σ m_i (r_i − c) = 0: the error of the
-    # total COM enters only squared; the parts' own position and mass errors enter linearly.
-    err_inertia = (np.array([p.error.inertia_com for p in local])[index] * 3 * (1 + defect) + 6 * defect * size
-                   + 2 * err_mass_i * reach ** 2 + mass * (4 * reach * err_position + 2 * err_position ** 2))
-    error["inertia_com"] = (float(err_inertia.sum()) + 2 * total_mass * err_com ** 2) * 1.01 + (
-        gamma + 16 * _U) * float((3 * size + 2 * mass * reach ** 2).sum())
-    return com, inertia, error
-
-
-def _pairwise_sum(rows):
-    """Column sums of ``rows`` (n, k), summed pairwise: rounding within gamma's (8 + log₂ n) u.
-
-    numpy sums pairwise only along a contiguous axis (a matrix product or a
-    reduction over the outer axis adds in sequence, with error growing as n u).
-    """
-    return np.ascontiguousarray(rows.T).sum(axis=1)

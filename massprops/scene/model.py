@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..compute import QUANTITIES, order_for
-from ..frames import Pose
+from ..model.frames import Pose
 
 __all__ = ["Part", "Placements", "Frame", "ReportRequest", "Scene", "DEFAULT_QUANTITIES"]
 

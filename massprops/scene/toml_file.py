@@ -15,9 +15,9 @@ import os
 
 import numpy as np
 
-from ..errors import MassPropsError, MeshFormatError, reason
-from ..frames import Pose, quat_to_matrix
-from ..properties import unit_factor
+from ..model.errors import MassPropsError, MeshFormatError, reason
+from ..model.frames import Pose, quat_to_matrix
+from ..model.properties import unit_factor
 from .model import DEFAULT_QUANTITIES, Frame, Part, Placements, ReportRequest, Scene
 
 __all__ = ["toml_scene", "read_instances"]

@@ -31,7 +31,7 @@ from fractions import Fraction
 import numpy as np
 
 from . import analytic, solids
-from ..frames import Pose
+from ..model.frames import Pose
 from ..mesh.surface import TriangleMesh
 
 __all__ = ["tessellation_rows", "extreme_rows", "relative_errors", "markdown_table", "csv_text", "plot",

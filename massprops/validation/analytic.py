@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..frames import parallel_axis, rotate_inertia
+from ..model.frames import parallel_axis, rotate_inertia
 
 __all__ = ["Analytic", "box_values", "sphere_values", "hollow_sphere_values", "cylinder_values", "cone_values",
            "torus_values", "ellipsoid_values", "regular_tetrahedron_values", "octahedron_values",
@@ -51,7 +51,7 @@ class Analytic:
         return cls(volume, center, inertia)
 
     def posed(self, pose):
-        """The values of the solid moved to ``x = A x' + t`` (a :class:`massprops.frames.Pose`)."""
+        """The values of the solid moved to ``x = A x' + t`` (a :class:`massprops.model.frames.Pose`)."""
         return Analytic(self.volume, pose.apply(self.center_of_mass), rotate_inertia(self.inertia_com, pose.rotation))
 
     def scaled(self, factors):

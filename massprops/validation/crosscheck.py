@@ -88,7 +88,7 @@ def trimesh_comparison(path, result, *, mesh=None):
 
     mesh = mesh or read(path)
     if not hasattr(mesh, "faces") or "shell_thickness" in result.checks:
-        from ..errors import OptionError
+        from ..model.errors import OptionError
         raise OptionError("--check-trimesh compares solids bounded by surfaces, not volume meshes or shells",
                           path=path, fix="leave out --check-trimesh here")
     faces = mesh.faces
@@ -128,5 +128,5 @@ def explanation(comparison):
 
 
 def _unit_length(props):
-    from ..properties import unit_factor
+    from ..model.properties import unit_factor
     return float(unit_factor(props.unit))

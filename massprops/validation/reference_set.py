@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import analytic, solids
-from ..frames import Pose
+from ..model.frames import Pose
 from ..mesh.surface import TriangleMesh
 from .regress import expected_row, write_expected
 
@@ -127,7 +127,7 @@ def _floats(exact):
 def exact_row(label, triangles, solid):
     """The expected.csv row of one file: exact values of ``triangles`` (as stored), smooth values, errors."""
     from .exact import exact_properties
-    from ..principal import principal
+    from ..model.principal import principal
 
     volume, center, inertia = _floats(exact_properties(triangles))
     row = expected_row(label, volume=volume, mass=volume, center_of_mass=center, inertia_com=inertia,

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 
 __all__ = ["COLUMNS_OF", "EXPECTED_COLUMNS", "Expected", "Deviation", "Comparison", "expected_row",
            "read_expected", "write_expected", "compare", "deviation_table", "junit_xml"]
@@ -225,7 +225,7 @@ def _axes_deviations(expected, principal, rtol, scale):
 
 
 def compare(expected, properties, *, rtol=1e-9, atol=0.0):
-    """Compare recomputed :class:`massprops.properties.MassProperties` with an :class:`Expected` row.
+    """Compare recomputed :class:`massprops.model.properties.MassProperties` with an :class:`Expected` row.
 
     Returns
     -------

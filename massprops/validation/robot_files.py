@@ -140,7 +140,7 @@ def _sdf_geometry(shape, role, name, indent, density=None):
         angles = " ".join(repr(math.degrees(float(a))) for a in shape.rpy)
         pose = f'<pose degrees="true">{" ".join(shape.xyz)} {angles}</pose>'
     elif name.endswith("_2"):
-        from ..frames import Pose
+        from ..model.frames import Pose
         quaternion = Pose(rpy_rotation([float(rational(a)) for a in shape.rpy])).as_quat(scalar_first=False)
         pose = (f'<pose rotation_format="quat_xyzw">{" ".join(shape.xyz)} '
                 f'{" ".join(shortest(x) for x in quaternion)}</pose>')
@@ -194,7 +194,7 @@ def _mjcf_geom(shape):
 
 
 def _quat(rpy):
-    from ..frames import Pose
+    from ..model.frames import Pose
     return Pose(rpy_rotation([float(rational(a)) for a in rpy])).as_quat()
 
 
@@ -250,7 +250,7 @@ def _mjcf_body_inside(spec, declared, geometry_only, indent):
             moments, axes = np.linalg.eigh(np.array([[float(x) for x in row] for row in truth]))
             if np.linalg.det(axes) < 0:
                 axes[:, 2] = -axes[:, 2]
-            from ..frames import Pose
+            from ..model.frames import Pose
             quat = Pose(axes).as_quat()
             if spec.declared == "rpy_inverted":
                 quat = quat * np.array([1, -1, -1, -1])

@@ -223,7 +223,7 @@ def ellipsoid(semi_axes=(3.0, 2.0, 1.0), n=32, m=16):
 
 
 def posed(mesh, pose):
-    """The mesh with every vertex moved to ``A x + t`` (a :class:`massprops.frames.Pose`).
+    """The mesh with every vertex moved to ``A x + t`` (a :class:`massprops.model.frames.Pose`).
 
     Written out element by element (no matrix product), so the bits do not
     depend on the BLAS library.

@@ -35,6 +35,6 @@ def write_picture(picture, path):
         from .png import write_png
         write_png(picture, path)
         return path
-    from ..errors import MassPropsError
+    from ..model.errors import MassPropsError
     raise MassPropsError(f"cannot draw into a {suffix or 'file without a suffix'}", path=os.fspath(path),
                          fix="name the output .html (a web page) or .png (an image)")

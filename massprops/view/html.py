@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 
 __all__ = ["write_html", "page"]
 

@@ -176,7 +176,7 @@ def part_picture(parts, *, glyph="box", limit=DISPLAY_TRIANGLES, about=()):
     about : sequence of (3,) points
         Points the inertia was also reported about (marked).
     """
-    from ..properties import unit_factor
+    from ..model.properties import unit_factor
     from ..report import to_text
     surfaces, lines, markers, notes, alerts, panels, rows = [], [], [], [], [], [], []
     length_unit = "mesh units"

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import MassPropsError
+from ..model.errors import MassPropsError
 from .geometry import capsule_mesh, cone_mesh, cylinder_mesh, decimated, ellipsoid_mesh
 from .picture import (DISPLAY_TRIANGLES, LINK_COLORS, STATUS_COLORS, Marker, Picture, Row, Surface,
                       glyph_lines)

@@ -37,7 +37,7 @@ def _instances(scene, result, length, limit):
 
 def scene_picture(result, obj, *, glyph="box", limit=DISPLAY_TRIANGLES):
     """The :class:`Picture` of a :class:`massprops.scene.assembly.SceneResult` and its JSON object ``obj``."""
-    from ..properties import unit_factor
+    from ..model.properties import unit_factor
     scene, unit = result.scene, result.scene.report.unit
     length_unit, mass_unit, inertia_unit = units(unit)
     surfaces, alerts = _instances(scene, result, float(unit_factor(unit)) if unit else 1.0, limit)

@@ -169,7 +169,7 @@ def annotate(props, mesh, *, mass_given=False):
     checks : dict
         ``positive_definite``, ``triangle_inequality``, ``triangle_margin``
         (when the inertia was computed; see
-        :func:`massprops.principal.physical_checks`).
+        :func:`massprops.model.principal.physical_checks`).
     warnings : list of str
     """
     vertices = vertex_columns(mesh.vertices)

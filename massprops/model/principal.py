@@ -18,7 +18,7 @@ from functools import lru_cache
 import numpy as np
 
 from .records import record
-from .core.rounding import U as _U
+from ..core.rounding import U as _U
 
 __all__ = ["Principal", "principal", "axis_angle_bounds", "physical_checks", "DEFAULT_RTOL", "AXIS_ANGLE_TOLERANCE"]
 

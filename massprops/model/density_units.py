@@ -16,7 +16,7 @@ DENSEST_SOLID = 25_000.0
 
 
 def density_warnings(density, unit, declared):
-    """Warnings (option placeholders, see :func:`massprops.errors.render_options`) for a run's density.
+    """Warnings (option placeholders, see :func:`massprops.model.errors.render_options`) for a run's density.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """The immutable :class:`MassProperties` value and its frame transforms.
 
-Frames (see :mod:`massprops.frames`): ``center_of_mass`` and ``inertia_com``
+Frames (see :mod:`massprops.model.frames`): ``center_of_mass`` and ``inertia_com``
 are in the part's local frame; the ``*_global`` quantities apply the pose.
 ``inertia_com`` is ``J_G' = ∫ (sᵀs I₃ − s sᵀ) dm`` about the center of mass;
 off-diagonal elements are the tensor's own (``J_xy = −∫ x y dm``).
@@ -21,7 +21,7 @@ if TYPE_CHECKING:                       # numpy.typing costs 0.4 ms at start-up
     from numpy.typing import ArrayLike
 
 from .records import record
-from .core.rounding import U as _U
+from ..core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
 from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia
 from .principal import DEFAULT_RTOL, Principal, principal
@@ -64,7 +64,7 @@ class ErrorBounds:
 
     # A quantity that was not computed has no bound (None), never a bound of zero.  The principal
     # bounds belong to the eigen-decomposition, found on demand: ``principal_source`` is a callable
-    # returning the :class:`massprops.principal.Principal` (set by MassProperties) or None.
+    # returning the :class:`massprops.model.principal.Principal` (set by MassProperties) or None.
 
     def _principal(self):
         return None if self.principal_source is None else self.principal_source()
@@ -356,7 +356,7 @@ class MassProperties:
 
     @cached_property
     def principal(self) -> Principal:
-        """:class:`massprops.principal.Principal` of ``inertia_com`` (local axes)."""
+        """:class:`massprops.model.principal.Principal` of ``inertia_com`` (local axes)."""
         self._need_inertia()
         # input_resolution["principal_moments"] already bounds the spectral norm (Weyl), no factor 3.
         resolution = self.error.input_resolution.get("principal_moments", 0.0)

@@ -1,0 +1,99 @@
+"""The package's import graph, read with ``ast`` (every import, at module level or inside a function):
+no cycles, and the value types in ``massprops/model/`` below everything that uses them."""
+
+import ast
+from pathlib import Path
+
+import massprops
+
+PACKAGE = Path(massprops.__file__).parent
+# What massprops.model may import from: itself and the compiled core beneath it.
+BELOW_MODEL = ("massprops.model", "massprops.core")
+
+
+def _module_name(path):
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path, modules):
+    """The massprops modules ``path`` imports (``from .x import y`` counts ``x.y`` when that is a module)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([base] if base else []))
+            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            while target and target not in modules:       # a name inside a module: the module
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                found.add(target)
+    return found
+
+
+def _graph():
+    paths = {_module_name(p): p for p in PACKAGE.rglob("*.py")}
+    return {name: _imports(path, paths) for name, path in paths.items()}
+
+
+def _without_packages(graph):
+    """Edges into a package's ``__init__`` stand for its re-exports; a package importing its own modules
+    is not a cycle through them."""
+    return {name: {t for t in targets if not name.startswith(t + ".")} for name, targets in graph.items()}
+
+
+def _cycle(graph):
+    """One import cycle as a list of modules, or None."""
+    state, stack = {}, []
+
+    def visit(node):
+        state[node] = "open"
+        stack.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == "open":
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state:
+                found = visit(nxt)
+                if found:
+                    return found
+        stack.pop()
+        state[node] = "done"
+        return None
+
+    for node in sorted(graph):
+        if node not in state:
+            found = visit(node)
+            if found:
+                return found
+    return None
+
+
+def test_the_walk_sees_imports():
+    graph = _graph()
+    assert "massprops.model.properties" in graph["massprops.model.combine"]
+    assert "massprops.model.combine" in graph["massprops.robot.overlap"]
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert _cycle({"a": {"b"}, "b": set()}) is None
+
+
+def test_no_import_cycles():
+    cycle = _cycle(_without_packages(_graph()))
+    assert cycle is None, " -> ".join(cycle)
+
+
+def test_model_imports_nothing_above_it():
+    graph = _graph()
+    model = [name for name in graph if name.startswith("massprops.model")]
+    assert len(model) >= 10
+    upward = {name: sorted(t for t in graph[name] if not t.startswith(BELOW_MODEL))
+              for name in model}
+    assert {name: targets for name, targets in upward.items() if targets} == {}
