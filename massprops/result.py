@@ -98,7 +98,7 @@ class Result:
 
     def to_dict(self) -> dict:
         """The JSON object ``massprops props --format json`` prints for this result (plain Python values)."""
-        from .report import result_dict
+        from .report.objects import result_dict
         return result_dict(self)
 
     def largest_relative_bound(self) -> float:

@@ -7,7 +7,7 @@ from xml.etree import ElementTree
 from click.testing import CliRunner
 
 from massprops.cli import main
-from massprops.report import junit
+from massprops.report.junit import junit
 
 
 def run(*args):

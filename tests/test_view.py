@@ -169,7 +169,7 @@ def test_scene_html_draws_every_part_and_the_total(runner, tmp_path):
     from massprops.cli import main
     from massprops.scene import assembly
     from massprops.view.scene import scene_picture
-    from massprops.scene.report import scene_dict
+    from massprops.report.scene import scene_dict
     here = os.path.join(os.path.dirname(__file__), "..", "sample_meshes", "scene", "arm.toml")
     out = tmp_path / "arm.png"
     result = runner.invoke(main, ["scene", here, "--html", str(out)])

@@ -89,7 +89,7 @@ def _analyze_all(models, settings, jobs):
 
 def _emit(objects, output_format, text):
     from .. import report
-    from ..robot import report as robot_report
+    from ..report import robot as robot_report
     if output_format == "json":
         click.echo(report.to_json(objects))
     elif output_format == "jsonl":
@@ -163,7 +163,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
     it resolved to.  Exit 1 if a model or a link could not be computed.
     """
     options.refuse_conflicts()
-    from ..robot.report import props_text
+    from ..report.robot import props_text
     _one_model_for_html(models, html_path)
     settings = _settings("props", **kwargs)
     objects = _analyze_all(models, settings, jobs)
@@ -200,7 +200,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     """
     options.refuse_conflicts()
     from ..robot.check import Tolerances
-    from ..robot.report import check_text, junit_xml
+    from ..report.robot import check_text, junit_xml
     _one_model_for_html(models, html_path)
     settings = _settings("check", tolerances=Tolerances(inertia_rtol, com_rtol, diagnosis_rtol),
                          massless=tuple(massless), declared_only=declared_only, **kwargs)

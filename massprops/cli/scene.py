@@ -37,7 +37,7 @@ def scene(scene_file, density, unit, only, repair, max_unpacked, max_instances, 
     options.refuse_conflicts()
     from .. import report
     from ..scene import assembly
-    from ..scene.report import scene_blocks, scene_dict, scene_text
+    from ..report.scene import scene_blocks, scene_dict, scene_text
 
     wanted = only
     limits = {"max_unpacked": max_unpacked, "max_instances": max_instances, "max_depth": max_depth}
@@ -67,7 +67,7 @@ def _html(loaded, result, obj, html_path, repair, limits):
     """Write the scene's page; the picture needs every part's COM and the total's inertia, computed if not asked."""
     from ..compute import QUANTITIES
     from ..scene import assembly
-    from ..scene.report import scene_dict
+    from ..report.scene import scene_dict
     from ..view import write_picture
     from ..view.scene import scene_picture
     request = loaded.report

@@ -285,7 +285,7 @@ def junit_xml(cases, *, rtol, atol):
     ----------
     cases : sequence of (label, Comparison or None, error message or None, seconds)
     """
-    from ..report import junit
+    from ..report.junit import junit
 
     suite = []
     for label, comparison, error, seconds in cases:

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..compute import Result
-from ..report import about_bound, display_bounds, result_dict, to_text, vector_text
+from .digits import vector_text
+from .objects import result_dict
+from .text import about_bound, display_bounds, to_text
 
 __all__ = ["scene_dict", "scene_text", "scene_blocks"]
 

@@ -1,4 +1,4 @@
-"""Text, CSV and JUnit renderings of analysed models (the JSON is :func:`massprops.report.to_json` of them)."""
+"""Text, CSV and JUnit renderings of analysed models (the JSON is :func:`massprops.report.objects.to_json` of them)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import io
 import os
 
 from ..model.errors import printable
+from .digits import significant
 
 __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
 
@@ -19,11 +20,12 @@ _TENSOR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
 def _g(value, digits=6):
-    return "-" if value is None else f"{value:.{digits}g}"
+    """A robot table's cell: the one number policy (:func:`significant`) at ``digits``, ``-`` where absent."""
+    return "-" if value is None else significant(value, digits=digits)
 
 
 def _vector(values, digits=6):
-    return "-" if values is None else "[" + ", ".join(f"{v:.{digits}g}" for v in values) + "]"
+    return "-" if values is None else "[" + ", ".join(significant(v, digits=digits) for v in values) + "]"
 
 
 def _header(obj, extra=""):
@@ -145,7 +147,7 @@ def check_text(obj):
 
 def _causes(obj):
     """One line per diagnosis present: what usually causes it, and what ``robot write`` would change."""
-    from .check import CAUSES, DIAGNOSES
+    from ..robot.check import CAUSES, DIAGNOSES
     present = {name for link in obj["links"] for name in link.get("diagnoses") or []}
     return [f"  {name}: usually {CAUSES[name][0]}; `massprops robot write` {CAUSES[name][1]}"
             for name in DIAGNOSES if name in present]
@@ -203,9 +205,9 @@ def csv_text(objects):
 
 
 def junit_xml(objects, failing):
-    """JUnit XML (:func:`massprops.report.junit`): a test suite per model, a test case per link; ``failing``
+    """JUnit XML (:func:`massprops.report.junit.junit`): a test suite per model, a test case per link; ``failing``
     statuses are failures, a model that could not be read one error."""
-    from ..report import junit
+    from .junit import junit
     suites = []
     for obj in objects:
         if obj.get("status") == "error":
