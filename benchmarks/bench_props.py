@@ -274,7 +274,7 @@ def startup(quick):
 
 _IN_PROCESS = """
 import sys, time
-from massprops.compute import mass_properties
+from massprops import mass_properties
 times = []
 while len(times) < int(sys.argv[2]) or sum(times) < float(sys.argv[3]):
     begin = time.perf_counter()

@@ -121,7 +121,7 @@ def arrangement_rows(quick=False):
     crosses (every check still on): the two icospheres moved apart, and the
     dented icosphere with the self-intersection search off (its signed integral).
     """
-    from massprops.compute import mass_properties
+    from massprops import mass_properties
     rows = ["| soup | triangles | plain `mass_properties` (s) | resolved (s) | resolved / plain | libigl CGAL union (s) "
             "| libigl / massprops | trueform arrangement (s) | massprops / trueform |",
             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]

@@ -9,7 +9,7 @@ reader or command needs them.
 """
 
 from .api import mass_properties
-from .compute import Result
+from .result import Result
 from .model.errors import MassPropsError
 from .model.frames import Pose
 from .mesh import TriangleMesh

@@ -17,7 +17,7 @@ from typing import Any, Union
 from numpy.typing import ArrayLike
 
 from . import compute
-from .compute import Result
+from .result import Result
 from .model.errors import ArgumentTypeError, OptionError, option
 from .model.frames import Pose
 from .mesh.arrays import is_path
@@ -107,7 +107,7 @@ def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: 
     TypeError
         A source of the wrong type (``ArgumentTypeError``), e.g. a list of paths.
     """
-    compute.check_pose(pose)
+    _check_pose(pose)
     if faces is not None:
         if is_path(source) or _is_trimesh_scene(source):
             raise ArgumentTypeError("faces: given with a file or a scene, which carry their own",
@@ -120,10 +120,17 @@ def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: 
             raise OptionError(f"{option(ignored[0])} does not apply to a scene",
                               fix=f"give {option('density')} for every part, or compute the parts one by one")
         return _scene_result(source, density=density, unit=unit, pose=pose, repair=repair, only=only)
-    return compute.mass_properties(source, density=density, mass=mass, unit=unit, pose=pose, repair=repair,
-                                   only=only, density_field=density_field, density_map=density_map, shell=shell,
-                                   max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
-                                   self_intersection=self_intersection)
+    return compute.mesh_result(source, density=density, mass=mass, unit=unit, pose=pose, repair=repair,
+                               only=only, density_field=density_field, density_map=density_map, shell=shell,
+                               max_unpacked=max_unpacked, max_instances=max_instances, max_depth=max_depth,
+                               self_intersection=self_intersection)
+
+
+def _check_pose(pose):
+    """Refuse a ``pose`` that is not a :class:`Pose` (a 4×4 matrix, a tuple...) with what to do instead."""
+    if pose is not None and not isinstance(pose, Pose):
+        raise ArgumentTypeError(f"pose: expected a massprops.Pose, got {type(pose).__name__}",
+                                fix="build one, e.g. Pose.from_matrix(R, translation=t) or Pose.from_quat(q)")
 
 
 def _is_trimesh_scene(source):

@@ -14,7 +14,6 @@ from functools import lru_cache
 
 from .model.records import record
 from . import core as _core
-from .model.frames import Pose
 from .model.errors import ArgumentTypeError, MassPropsError, OptionError
 from .mesh.arrays import as_mesh, is_path
 from .mesh.surface import TriangleMesh
@@ -22,7 +21,7 @@ from .model.properties import MassProperties, unit_factor
 from .model.resolution import annotate
 from .result import Result
 
-__all__ = ["mass_properties", "Result", "QUANTITIES", "order_for", "quantities", "Checked", "checked_solid"]
+__all__ = ["mesh_result", "QUANTITIES", "order_for", "quantities", "Checked", "checked_solid"]
 
 # Quantities for --only, and the highest moment each needs.
 QUANTITIES = {"volume": 0, "mass": 0, "surface_area": 0, "center_of_mass": 1, "inertia": 2, "principal": 2}
@@ -46,26 +45,19 @@ def quantities(only):
     return wanted
 
 
-def check_pose(pose):
-    """Refuse a ``pose`` that is not a :class:`Pose` (a 4×4 matrix, a tuple...) with what to do instead."""
-    if pose is not None and not isinstance(pose, Pose):
-        raise ArgumentTypeError(f"pose: expected a massprops.Pose, got {type(pose).__name__}",
-                                fix="build one, e.g. Pose.from_matrix(R, translation=t) or Pose.from_quat(q)")
-
-
 def order_for(only):
     """Highest moment needed for the quantities in ``only`` (None: everything)."""
     wanted = quantities(only)
     return 2 if not wanted else max(QUANTITIES[q] for q in wanted)
 
 
-def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
-                    density_field=None, density_map=None, shell=None, max_unpacked=None, max_instances=None, max_depth=None,
-                    self_intersection=None):
+def mesh_result(source, *, density=None, mass=None, unit=None, pose=None, repair=False, only=None,
+                density_field=None, density_map=None, shell=None, max_unpacked=None, max_instances=None, max_depth=None,
+                self_intersection=None):
     """Mass properties of a closed mesh (or of a volume mesh, or of a surface as a sheet).
 
     The pipeline behind :func:`massprops.mass_properties` (which also takes
-    scenes); see there for the parameters.  ``source`` is a path or anything
+    scenes, and checks the arguments' types); see there for the parameters.  ``source`` is a path or anything
     :func:`massprops.mesh.arrays.as_mesh` accepts.
 
     Returns
@@ -74,7 +66,6 @@ def mass_properties(source, *, density=None, mass=None, unit=None, pose=None, re
     """
     start = time.perf_counter()
     order = order_for(only)
-    check_pose(pose)
     path = None
     if is_path(source):
         path = os.fsdecode(source)

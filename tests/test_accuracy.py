@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 import massprops.cli
 from conftest import random_rotation
 from massprops.validation import accuracy, solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
 from massprops.model.principal import axis_angle_bounds, physical_checks, principal

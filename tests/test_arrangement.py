@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from hypothesis import given, settings, strategies as st
 
 from massprops.cli import main
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import OpenMeshError
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh

@@ -7,7 +7,7 @@ import pytest
 
 from conftest import random_rotation
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.mesh.surface import TriangleMesh
 
 

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import MeshFormatError
 from massprops.io import read
 from massprops.io.stl import write_binary

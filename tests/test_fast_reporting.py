@@ -16,7 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 from massprops import report
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.mesh.surface import TriangleMesh
 from massprops.model.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
 

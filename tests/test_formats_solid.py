@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from massprops.cli import main
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import MeshFormatError
 from massprops.mesh.volume import VolumeMesh
 from massprops.validation import solids

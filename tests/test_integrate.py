@@ -5,7 +5,7 @@ import pytest
 
 from conftest import random_rotation
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
 from oracle import errors_against, exact_properties

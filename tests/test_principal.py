@@ -8,7 +8,7 @@ from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.mesh.surface import TriangleMesh
 from massprops.model.principal import principal
 

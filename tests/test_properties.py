@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import OptionError
 from massprops.model.frames import Pose, parallel_axis
 from massprops.mesh.surface import TriangleMesh

@@ -7,7 +7,7 @@ import trimesh
 from conftest import random_rotation
 from massprops.validation import solids
 from massprops.cli import main
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import MeshGeometryError
 from massprops.mesh.surface import TriangleMesh
 from oracle import errors_against, exact_properties

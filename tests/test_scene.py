@@ -12,7 +12,7 @@ import massprops.cli
 from massprops.model.combine import combine_parts
 from massprops.scene import assembly
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.frames import Pose
 from massprops.io.stl import write_binary
 

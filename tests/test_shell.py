@@ -11,7 +11,7 @@ import pytest
 
 import massprops.cli
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.io.stl import write_binary
 from massprops.mesh.surface import TriangleMesh
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.model.errors import MeshGeometryError, OpenMeshError
 from massprops.io import obj as obj_io
 from massprops.io.stl import write_binary

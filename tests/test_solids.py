@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 import massprops.cli
 from massprops.validation import analytic, solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.validation.exact import exact_properties
 from massprops.model.frames import Pose
 from massprops.validation.reference_set import reference_solids

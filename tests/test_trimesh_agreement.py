@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.mesh.surface import TriangleMesh
 
 

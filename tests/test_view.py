@@ -50,7 +50,7 @@ def test_boundary_of_two_tetrahedra_and_decimation():
 
 def _part(tmp_path, mesh, name="part.stl", **options):
     from massprops import report
-    from massprops.compute import mass_properties
+    from massprops import mass_properties
     from massprops.view.picture import display_triangles
     path = str(tmp_path / name)
     write_binary(path, mesh.triangles)
@@ -150,7 +150,7 @@ def test_view_applies_unit_and_density(box, runner, tmp_path, glyph):
     result = runner.invoke(main, ["view", box, "-o", str(out), "--glyph", glyph, "--unit", "mm", "--density", "2000"])
     assert result.exit_code == 0, result.output
     from massprops import report
-    from massprops.compute import mass_properties
+    from massprops import mass_properties
     from massprops.view.picture import part_picture
     from massprops.io import read
     from massprops.view.picture import display_triangles

@@ -12,7 +12,7 @@ import pytest
 
 import massprops.cli
 from massprops.validation import solids
-from massprops.compute import mass_properties
+from massprops import mass_properties
 from massprops.mesh.volume import VolumeMesh, parse_density_map
 
 STEEL, ALUMINIUM = 7850.0, 2700.0

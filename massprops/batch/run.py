@@ -144,7 +144,7 @@ def error_message(exc, style="python"):
 def run_one(path, settings=Settings(), output_format="csv"):
     """Compute one file's record; never raises for a bad file (it becomes an error record)."""
     from .. import report
-    from ..compute import mass_properties
+    from ..api import mass_properties
     try:
         if os.path.isdir(path):
             raise MeshReadError("is a directory holding no mesh files", path=path,

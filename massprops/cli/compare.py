@@ -60,7 +60,7 @@ check = click.Command("check", params=compare.params, callback=_deprecated, hidd
 
 
 def _one(path, rtol):
-    from ..compute import mass_properties
+    from ..api import mass_properties
     from ..validation.crosscheck import explanation, trimesh_comparison
 
     result = mass_properties(path)

@@ -36,7 +36,7 @@ def props(files, density, total_mass, unit, rotate, translate, about, omega, onl
     """
     options.refuse_conflicts()
     from .. import report
-    from ..compute import mass_properties
+    from ..api import mass_properties
 
     wanted = None if only is None else set(only) | ({"inertia"} if omega is not None else set())
     pose = options.pose_from_options(rotate, translate)

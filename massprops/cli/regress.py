@@ -51,7 +51,7 @@ def regress(expected, files, record, rtol, atol, junit, density, unit):
 
 def _record(expected, files, density, unit):
     from ..validation import regress as lib
-    from ..compute import mass_properties
+    from ..api import mass_properties
 
     folder = os.path.dirname(os.path.abspath(expected))
     rows, failed = {}, 0
@@ -79,7 +79,7 @@ def _record(expected, files, density, unit):
 
 def _compare(expected, rtol, atol, junit):
     from ..validation import regress as lib
-    from ..compute import mass_properties
+    from ..api import mass_properties
 
     rows = options.guarded(lib.read_expected, expected, path=expected)
     if rows is None:

@@ -47,7 +47,7 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     """
     options.refuse_conflicts()
     from .. import dynamics
-    from ..compute import mass_properties
+    from ..api import mass_properties
     from ..dynamics.closed_form import torque_free
 
     if steps is not None and method not in SPLITTING:

@@ -48,7 +48,7 @@ def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate,
     """
     options.refuse_conflicts()
     from .. import report
-    from ..compute import mass_properties
+    from ..api import mass_properties
     from ..io import read
     from ..view import write_picture
     from ..view.picture import DISPLAY_TRIANGLES, display_triangles, part_picture

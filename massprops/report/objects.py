@@ -39,7 +39,7 @@ _ERROR_OF = {"principal_axes_rad": "principal_axes"}
 
 
 def result_dict(result, *, omega=None, about=(), only=None, extra=None):
-    """The SPEC's JSON object for one :class:`massprops.compute.Result`.
+    """The SPEC's JSON object for one :class:`massprops.result.Result`.
 
     Parameters
     ----------

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compute import Result
+from ..result import Result
 from .digits import vector_text
 from .objects import result_dict
 from .text import about_bound, display_bounds, to_text

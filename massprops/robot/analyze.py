@@ -238,7 +238,7 @@ _NULL_PROPS = ("triangles", "volume", "mass", "density", "surface_area", "center
 
 def _props_dict(model, computed, pose):
     from .. import report
-    from ..compute import Result
+    from ..result import Result
     placed = computed.props.with_pose(pose)
     result = Result(file=model.path, properties=placed, triangles=computed.triangles, checks={},
                     warnings=computed.warnings)

@@ -258,9 +258,6 @@ class _Unit:
     def support(self, n):
         return max(m.support(n) for m in self.members)
 
-    def reach_from(self, point):
-        return max(float(np.linalg.norm(m.translation - point)) + m.reach() for m in self.members)
-
 
 def _frac(values):
     return [Fraction(float(x)) for x in values]

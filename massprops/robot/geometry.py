@@ -344,12 +344,12 @@ def _open_mesh(geometry, path, density, exc, mesh, scale, on_open):
         hull = ConvexHull(scaled.vertices)
         scaled = TriangleMesh(scaled.vertices, np.asarray(hull.simplices, dtype=np.int64))
         note = "used its convex hull ({on_open=hull})"
-        from ..compute import mass_properties
-        result = mass_properties(_outward(scaled), density=float(density), pose=geometry.pose)
+        from ..compute import mesh_result
+        result = mesh_result(_outward(scaled), density=float(density), pose=geometry.pose)
     else:
         note = f"treated as a sheet {on_open.thickness:g} m thick ({option('on_open', 'shell')})"
-        from ..compute import mass_properties
-        result = mass_properties(scaled, density=float(density), pose=geometry.pose, shell=on_open.thickness)
+        from ..compute import mesh_result
+        result = mesh_result(scaled, density=float(density), pose=geometry.pose, shell=on_open.thickness)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
     return (result.properties, bounds, int(mesh.faces.shape[0]), (f"{what}: {exc.problem}; {note}",
                                                                    *result.warnings), result.checks, None)

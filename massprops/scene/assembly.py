@@ -177,10 +177,10 @@ def _local_properties(part, records, unit, wanted, repair):
     record = records[part.mesh]
     with _naming(part, record.key):
         if record.moments is None or part.density_field is not None or part.density_map is not None:
-            from ..compute import mass_properties
-            result = mass_properties(record.mesh, density=part.density, mass=part.mass, unit=unit,
-                                     repair=repair, only=wanted, density_field=part.density_field,
-                                     density_map=part.density_map)
+            from ..compute import mesh_result
+            result = mesh_result(record.mesh, density=part.density, mass=part.mass, unit=unit,
+                                 repair=repair, only=wanted, density_field=part.density_field,
+                                 density_map=part.density_map)
             records[part.mesh] = replace(record, triangles=result.triangles, checks=result.checks,
                                          warnings=result.warnings)
             return result.properties

@@ -120,14 +120,14 @@ def _values(source):
 
 def measure(case, *, repeat=None):
     """massprops and trimesh on one case against the exact (and smooth) values: one row dict."""
-    from ..compute import mass_properties
+    from ..compute import mesh_result
     from .crosscheck import trimesh_values
     from .exact import exact_properties
 
     mesh = case.mesh
     repeat = repeat or (3 if mesh.faces.shape[0] < 100_000 else 1)
     exact = exact_properties(mesh.triangles)
-    seconds, result = _timed(lambda: mass_properties(mesh), repeat)
+    seconds, result = _timed(lambda: mesh_result(mesh), repeat)
     trimesh_seconds, theirs = _timed(lambda: trimesh_values(mesh.vertices, mesh.faces), repeat)
     props = result.properties
     ours = _values(props)

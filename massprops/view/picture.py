@@ -167,7 +167,7 @@ def part_picture(parts, *, glyph="box", limit=DISPLAY_TRIANGLES, about=()):
     Parameters
     ----------
     parts : sequence of (Result, dict, vertices (n, 3), faces (f, 3))
-        Each result (:class:`massprops.compute.Result`), its JSON object
+        Each result (:class:`massprops.result.Result`), its JSON object
         (:func:`massprops.report.result_dict`), and the triangles it was
         integrated from, in the mesh's own coordinates and unit.
     glyph : {"box", "ellipsoid"}
