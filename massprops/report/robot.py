@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 
 from ..model.errors import printable
 from .digits import significant
+from .tables import to_csv
 
 __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
 
@@ -191,17 +190,13 @@ def _csv_row(obj, link):
 
 def csv_text(objects):
     """One CSV row per link of every model (a model that failed: one row with status error)."""
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=CSV_COLUMNS, lineterminator="\n")
-    writer.writeheader()
+    rows = []
     for obj in objects:
         if obj.get("status") == "error":
-            writer.writerow({**dict.fromkeys(CSV_COLUMNS, ""), "model": obj["model"], "status": "error",
-                             "message": obj["message"]})
+            rows.append({"model": obj["model"], "status": "error", "message": obj["message"]})
             continue
-        for link in obj["links"]:
-            writer.writerow(_csv_row(obj, link))
-    return buffer.getvalue()
+        rows += [_csv_row(obj, link) for link in obj["links"]]
+    return to_csv(rows, CSV_COLUMNS)
 
 
 def junit_xml(objects, failing):

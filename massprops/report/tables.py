@@ -42,19 +42,24 @@ def csv_row(obj, *, status="ok", message=""):
     return row
 
 
-def to_csv(rows):
-    """CSV text with the SPEC's header for rows made by :func:`csv_row`.
+def to_csv(rows, columns=None):
+    """CSV text with a header for rows made by :func:`csv_row` (or any dicts keyed by ``columns``).
 
-    A field holding a comma, a quote, a carriage return or a line feed is
+    ``columns`` defaults to :data:`CSV_COLUMNS`; the robot report passes its
+    own.  A field holding a comma, a quote, a carriage return or a line feed is
     quoted (quotes doubled), so every record reads back whole: Python's
     csv.writer leaves a lone carriage return unquoted when lines end in a line feed.
     """
-    lines = [_CSV_HEADER]
+    if columns is None:
+        columns, column_set, header = CSV_COLUMNS, _COLUMN_SET, _CSV_HEADER
+    else:
+        column_set, header = frozenset(columns), ",".join(map(_csv_field, columns)) + "\n"
+    lines = [header]
     for row in rows:
-        extra = row.keys() - _COLUMN_SET
+        extra = row.keys() - column_set
         if extra:
             raise ValueError(f"dict contains fields not in the CSV columns: {', '.join(map(repr, extra))}")
-        values = [row.get(key, "") for key in CSV_COLUMNS]
+        values = [row.get(key, "") for key in columns]
         line = _plain_csv_line(values)
         lines.append(line if line is not None else ",".join(map(_csv_field, values)) + "\n")
     return "".join(lines)
