@@ -160,7 +160,7 @@ def test_stdout_report_when_no_output_file(runner, corpus):
 
 def _count_runs(monkeypatch):
     """The files each run computes (their records as they arrive from the workers)."""
-    from massprops.batch.report import ReportWriter
+    from massprops.batch.output import ReportWriter
     computed = []
     real = ReportWriter.add
 

@@ -7,7 +7,7 @@ gives a record with ``status=error`` and its one-line message; the run goes on.
 
 Records are appended to the report as files finish, so an interrupted run
 keeps its work; the finished report is rewritten sorted by path, and a state
-file next to it lets ``resume`` skip unchanged files (:mod:`massprops.batch.report`).
+file next to it lets ``resume`` skip unchanged files (:mod:`massprops.batch.output`).
 
 Work runs in local worker processes (:mod:`massprops.batch.workers`: a time
 limit per file, a dead worker costs only its file) or on a Dask cluster
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from ..model.errors import MassPropsError, MeshReadError, OptionError, printable, render_options
 from .inputs import expand_inputs
-from .report import ReportWriter, file_stat, is_error, plan, record, state_path
+from .output import ReportWriter, file_stat, is_error, plan, record, state_path
 from .workers import TIMED_OUT, WORKER_FAILED, run_workers
 from ..model.frames import Pose
 

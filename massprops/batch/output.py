@@ -1,7 +1,7 @@
 """The report file of a batch: records appended as files finish, sorted at the end, and its resume state.
 
 A record is one file's text in the report: a CSV row with the SPEC's columns
-(written by :func:`massprops.report.to_csv`, the one writer of those columns)
+(written by :func:`massprops.report.tables.to_csv`, the one CSV writer)
 or a JSON line.  The state file next to the report (``REPORT.state.jsonl``)
 holds the run's settings and each file's size and modification time, which
 is what tells an unchanged file from a changed one on ``--resume``.
