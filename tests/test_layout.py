@@ -97,3 +97,19 @@ def test_model_imports_nothing_above_it():
     upward = {name: sorted(t for t in graph[name] if not t.startswith(BELOW_MODEL))
               for name in model}
     assert {name: targets for name, targets in upward.items() if targets} == {}
+
+
+def test_reports_and_applications_stay_below_the_commands():
+    graph = _graph()
+    # Only the command line (and ``python -m massprops``) imports the command line.
+    into_cli = sorted((name, t) for name, targets in graph.items() for t in targets
+                      if t.startswith("massprops.cli") and not name.startswith(("massprops.cli", "massprops.__main__")))
+    assert into_cli == []
+    # Reports render results: they read no files through batch, view or the commands.
+    report_up = sorted((name, t) for name, targets in graph.items() if name.startswith("massprops.report")
+                       for t in targets if t.startswith(("massprops.cli", "massprops.batch", "massprops.view")))
+    assert report_up == []
+    # The robot application takes its maths from the model, not from the scene application.
+    robot_on_scene = sorted((name, t) for name, targets in graph.items() if name.startswith("massprops.robot")
+                            for t in targets if t.startswith("massprops.scene"))
+    assert robot_on_scene == []
