@@ -113,3 +113,11 @@ def test_reports_and_applications_stay_below_the_commands():
     robot_on_scene = sorted((name, t) for name, targets in graph.items() if name.startswith("massprops.robot")
                             for t in targets if t.startswith("massprops.scene"))
     assert robot_on_scene == []
+
+
+def test_only_the_checking_commands_use_validation():
+    # validation/ holds the oracle, the reference solids and the regress/accuracy/compare tools: the
+    # library (batch workers included) computes without it.
+    users = sorted({name for name, targets in _graph().items() for t in targets
+                    if t.startswith("massprops.validation") and not name.startswith("massprops.validation")})
+    assert users and all(name.startswith("massprops.cli.") for name in users), users
