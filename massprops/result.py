@@ -14,6 +14,7 @@ import numpy as np
 
 from .model.properties import MassProperties
 from .model.records import record
+from .report.digits import bound_text, significant
 
 __all__ = ["Result"]
 
@@ -119,8 +120,8 @@ class Result:
 
     def __repr__(self):
         def numbers(values):
-            return "[" + ", ".join(f"{float(v):.6g}" for v in values) + "]"
-        parts = [f"file={self.file!r}", f"mass={self.mass:.6g}"]
+            return "[" + ", ".join(significant(float(v), digits=6) for v in values) + "]"
+        parts = [f"file={self.file!r}", f"mass={significant(self.mass, digits=6)}"]
         if self.center_of_mass is not None:
             parts.append(f"center_of_mass={numbers(self.center_of_mass)}")
         if self.properties.inertia_com is not None:
@@ -140,11 +141,11 @@ class Result:
             rows.append(("principal moments", _vector(self.principal_moments), e.principal_moments))
             rows.append(("principal axes", "<br>".join(_vector(r) for r in self.principal_axes), None))
         body = "".join(f"<tr><th style='text-align:left'>{name}</th><td style='font-family:monospace'>{value}</td>"
-                       f"<td>{'' if bound is None else f'± {bound:.2g}'}</td></tr>" for name, value, bound in rows)
+                       f"<td>{'' if bound is None else '± ' + bound_text(bound)}</td></tr>" for name, value, bound in rows)
         unit = f", SI units (mesh unit {escape(p.unit)})" if p.unit else ""
         return (f"<table><caption>{escape(str(self.file))}: {self.triangles} triangles{unit}</caption>"
                 f"{body}</table>")
 
 
 def _vector(values):
-    return "[" + ", ".join(f"{float(v):.15g}" for v in values) + "]"
+    return "[" + ", ".join(significant(float(v)) for v in values) + "]"

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-__all__ = ["significant", "vector_text", "relative_difference"]
+__all__ = ["significant", "vector_text", "bound_text", "relative_difference"]
 
 
 def significant(x, bound=None, digits=None):
@@ -35,6 +35,11 @@ def vector_text(values, bound=None, digits=None):
     bounds = bound if isinstance(bound, list) else [bound] * len(values)
     texts = [significant(x, b, digits) for x, b in zip(values, bounds)]
     return "[" + ", ".join(t if t.startswith("-") else " " + t for t in texts) + "]"
+
+
+def bound_text(bound):
+    """An error bound as the reports print it after ``±``: two significant digits."""
+    return f"{bound:.2g}"
 
 
 def relative_difference(ours, theirs, *, floor=0.0):

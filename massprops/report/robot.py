@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 
 from ..model.errors import printable
-from .digits import significant
+from .digits import bound_text, significant
 from .tables import to_csv
 
 __all__ = ["props_text", "check_text", "csv_text", "CSV_COLUMNS", "junit_xml"]
@@ -62,11 +62,11 @@ def _total_lines(obj):
     frame = "the model frame" if obj["frame"] in ("model", "world") else f"the frame of root link '{obj['frame']}'"
     moved = {k: v for k, v in obj.get("joints", {}).items() if v}
     at = "joints at 0" if not moved else "joints " + ", ".join(f"{k}={v:g}" for k, v in moved.items())
-    lines = [f"  total ({at}; in {frame}): mass {_g(total['mass'], 9)} kg ± {total['error']['mass']:.2g}, "
+    lines = [f"  total ({at}; in {frame}): mass {_g(total['mass'], 9)} kg ± {bound_text(total['error']['mass'])}, "
              f"center of mass {_vector(total['center_of_mass'], 9)} m"]
     for k, row in enumerate(total["inertia_com"]):
         label = "inertia about it [kg·m²]" if k == 0 else ""
-        lines.append(f"    {label:<26}{_vector(row, 9)}" + (f"   ± {total['error']['inertia_com']:.2g}" if k == 0
+        lines.append(f"    {label:<26}{_vector(row, 9)}" + (f"   ± {bound_text(total['error']['inertia_com'])}" if k == 0
                                                               else ""))
     if total.get("left_out"):
         lines.append(f"    (leaves out the links that failed: {', '.join(total['left_out'])})")
@@ -85,7 +85,7 @@ def props_text(obj):
     for link in obj["links"]:
         error = link.get("error") or {}
         rows.append((link["link"], link["status"], _g(link["mass"], 9),
-                     f"{error['mass']:.1e}" if error.get("mass") else "", _vector(link["center_of_mass"]),
+                     bound_text(error["mass"]) if error.get("mass") else "", _vector(link["center_of_mass"]),
                      _vector(link.get("principal_moments")), _geometry_text(link)))
     lines = [_header(obj), *_table(rows), *_total_lines(obj)]
     lines += _messages(obj)

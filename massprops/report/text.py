@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .digits import significant, vector_text
+from .digits import bound_text, significant, vector_text
 
 __all__ = ["to_text", "header", "display_bounds", "about_bound"]
 
@@ -101,12 +101,12 @@ def to_text(obj, *, digits=None):
         else:
             text = significant(value, bound, digits) if isinstance(value, (int, float)) or value is None \
                 else str(value)
-        lines.append(f"  {label:<22} {text}" + (f"   ± {shown:.2g}" if shown is not None else ""))
+        lines.append(f"  {label:<22} {text}" + (f"   ± {bound_text(shown)}" if shown is not None else ""))
 
     def matrix(label, rows, bound, shown=None):
         for i, values in enumerate(rows):
             lines.append(f"  {label if i == 0 else '':<22} {vector_text(values, bound, digits)}"
-                         + (f"   ± {shown:.2g}" if shown is not None and i == 0 else ""))
+                         + (f"   ± {bound_text(shown)}" if shown is not None and i == 0 else ""))
 
     posed = obj["pose"]["rotation"] != np.eye(3).tolist() or any(obj["pose"]["translation"])
     skip = set() if posed else {"center_of_mass_global", "inertia_com_global"}
