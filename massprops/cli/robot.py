@@ -161,12 +161,17 @@ def _keep_only(objects, only):
         return objects
     dropped = {key for name, keys in _ONLY_KEYS.items() if name not in only for key in keys}
 
+    # check's computed inertial (at the declared mass) shows as principal moments in its table
+    computed_dropped = dropped - ({"inertia_com"} if "principal" in only else set())
+
     def trim(part):
         if not part:
             return part
         part = {k: v for k, v in part.items() if k not in dropped}
         if isinstance(part.get("error"), dict):
             part["error"] = {k: v for k, v in part["error"].items() if k not in dropped}
+        if isinstance(part.get("computed"), dict):
+            part["computed"] = {k: v for k, v in part["computed"].items() if k not in computed_dropped}
         return part
     return [{**obj, "links": [trim(link) for link in obj.get("links", [])],
              **({"total": trim(obj["total"])} if obj.get("total") else {})} for obj in objects]
@@ -202,6 +207,9 @@ def props(models, only, output_format, jobs, html_path, **kwargs):
 @click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @model_options
 @click.option("--declared-only", is_flag=True, help="Check the declared inertials alone (no meshes read).")
+@options.only_option("Comma-separated quantities printed of each link's geometry: volume, mass, surface_area, "
+                     "center_of_mass, inertia, principal.  Default: all.  The check itself (status, diagnoses, "
+                     "the comparison, --format junit) always compares mass, centre of mass and inertia.")
 @click.option("--strict", is_flag=True, help="Exit 1 also on mismatch and missing.")
 @click.option("--massless", multiple=True, metavar="GLOB", help="Links whose mass 0 is intended (repeatable).")
 @click.option("--inertia-rtol", type=options.POSITIVE, default=0.1, show_default=True,
@@ -215,7 +223,7 @@ def props(models, only, output_format, jobs, html_path, **kwargs):
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes for several models (default: all cores).")
 @html_option
-def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
+def check(models, declared_only, only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
           jobs, html_path, **kwargs):
     """Check each link's declared inertial: valid, and consistent with its geometry.
 
@@ -236,7 +244,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     if output_format == "junit":
         click.echo(junit_xml(objects, failing), nl=False)
     else:
-        _emit(objects, output_format, check_text)
+        _emit(_keep_only(objects, only), output_format, check_text)
     if junit:
         with open(junit, "w", encoding="utf-8") as handle:
             handle.write(junit_xml(objects, failing))

@@ -177,8 +177,9 @@ def _csv_row(obj, link):
         row.update(zip(("declared_Ixx", "declared_Iyy", "declared_Izz", "declared_Ixy", "declared_Ixz",
                         "declared_Iyz"), (repr(d[a][b]) for a, b in _TENSOR)))
     computed = link.get("computed")
-    if computed:
+    if computed and computed.get("mass") is not None:
         row["computed_mass"] = repr(computed["mass"])
+    if computed and computed.get("inertia_com") is not None:
         c = computed["inertia_com"]
         row.update(zip(("computed_Ixx", "computed_Iyy", "computed_Izz", "computed_Ixy", "computed_Ixz",
                         "computed_Iyz"), (repr(c[a][b]) for a, b in _TENSOR)))
