@@ -64,7 +64,8 @@ def _summary_line(summary):
 @click.command(cls=options.Command)
 @click.argument("paths", nargs=-1, required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
-              help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")
+              help="Report file (in --format), written as files finish (csv, jsonl) and sorted at the end.  "
+                   "Default (or -): stdout when done.")
 @options.format_option("csv", "jsonl", "json", "text")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
@@ -100,8 +101,8 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     own elements); --only leaves the columns of other quantities empty;
     --format jsonl writes the full `props` objects one a line, json one array
     of them, text each file's block as `props` prints it and a count line
-    (json and text are written whole at the end; -o's file is in --format
-    whatever its name).  A file that fails gets
+    (json and text are written whole at the end).  The report, on stdout or
+    in the -o file whatever its name, is in the format --format gives.  A file that fails gets
     status=error and its message, and the run goes on; a worker that dies costs
     only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
     (the report is still complete).
