@@ -5,6 +5,10 @@ A record is one file's text in the report: a CSV row with the SPEC's columns
 or a JSON line.  The state file next to the report (``REPORT.state.jsonl``)
 holds the run's settings and each file's size and modification time, which
 is what tells an unchanged file from a changed one on ``--resume``.
+
+The ``text`` and ``json`` reports are rendered whole at the end (a JSON array
+cannot be appended to, a text block is not read back): their records are JSON
+lines kept in the state file, which is where ``--resume`` finds them.
 """
 
 from __future__ import annotations
@@ -30,10 +34,11 @@ def csv_line(row):
 def record(obj, status, message, output_format):
     """The report line of one file from its ``props`` object (just ``{"file": ...}`` on error).
 
-    ``"csv"``: the SPEC's columns, floats as ``repr``; ``"jsonl"``: the object
-    with ``status`` and ``message`` first.
+    ``"csv"``: the SPEC's columns, floats as ``repr``; ``"jsonl"`` (and
+    ``"json"``, ``"text"``, rendered from these at the end): the object with
+    ``status`` and ``message`` first.
     """
-    if output_format == "jsonl":
+    if output_format != "csv":
         head = {"file": obj["file"], "status": status, "message": message}
         return json.dumps({**head, **obj}, allow_nan=False) + "\n"
     return csv_line(report.csv_row(obj, status=status, message=message))
@@ -60,8 +65,35 @@ def _complete_text(path):
     return text[:text.rfind("\n") + 1]
 
 
+def rendered(output_format):
+    """Whether the report is rendered whole at the end (its records kept in the state file)."""
+    return output_format in ("text", "json")
+
+
+def render(lines, output_format):
+    """The ``text`` or ``json`` report from its JSON-line records, in the order given.
+
+    ``json``: one array of the objects; ``text``: each file's block as ``props``
+    prints it (a failed file: ``error: FILE: message``), then a count line.
+    """
+    objects = [json.loads(line) for line in lines]
+    if output_format == "json":
+        return report.to_json(objects) + "\n"
+    blocks, failed = [], 0
+    for obj in objects:
+        if obj.get("status") == "ok":
+            blocks.append(report.to_text({k: v for k, v in obj.items() if k not in ("status", "message")}))
+        else:
+            failed += 1
+            blocks.append(f"error: {obj['file']}: {obj.get('message', '')}")
+    count = f"{len(objects)} file{'' if len(objects) == 1 else 's'}: {len(objects) - failed} ok, {failed} failed"
+    return "".join(block + "\n\n" for block in blocks) + count + "\n"
+
+
 def _records_in(output, output_format):
     """``{file: line}`` of an existing report (empty if absent or not a batch report)."""
+    if rendered(output_format):
+        return _state_records(output)
     try:
         text = _complete_text(output)
     except OSError:
@@ -86,6 +118,15 @@ def _records_in(output, output_format):
         except (ValueError, KeyError, TypeError):
             continue
     return records
+
+
+def _state_records(output):
+    """``{file: line}`` of the records a ``text`` or ``json`` run kept in its state file."""
+    try:
+        lines = _complete_text(state_path(output)).splitlines()[1:]
+        return {e["file"]: e["record"] for e in map(json.loads, lines) if "record" in e}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
 
 
 def _state_in(output, header):
@@ -126,17 +167,24 @@ class ReportWriter:
 
     def __init__(self, output, output_format, header, kept):
         self.output, self.head = output, (report.to_csv([]) if output_format == "csv" else "")
+        self.format, self.rendered = output_format, rendered(output_format)
         self.lines = {f: line for f, (line, _) in kept.items()}
         self.report_file = self.state_file = None
         if output is None:
             return
         with self._writing():
-            self.report_file = _open_for_writing(output)
+            if not self.rendered:
+                self.report_file = _open_for_writing(output)
+                self.report_file.write(self.head + "".join(self.lines.values()))
             self.state_file = _open_for_writing(state_path(output))
-            self.report_file.write(self.head + "".join(self.lines.values()))
             self.state_file.write(json.dumps(header) + "\n")
-            self.state_file.writelines(json.dumps({"file": f, "stat": s}) + "\n" for f, (_, s) in kept.items())
+            self.state_file.writelines(json.dumps(self._entry(f, s, line)) + "\n" for f, (line, s) in kept.items())
             self._flush()
+
+    def _entry(self, file, stat, line, retry=False):
+        """A state file line: the file's stat (and, for a rendered report, its record)."""
+        return {"file": file, "stat": stat, **({"retry": True} if retry else {}),
+                **({"record": line} if self.rendered else {})}
 
     @contextmanager
     def _writing(self, path=None):
@@ -148,20 +196,21 @@ class ReportWriter:
                               fix="free space, or give a path in an existing, writable folder") from None
 
     def _flush(self):
-        self.report_file.flush()
-        self.state_file.flush()
+        for f in (self.report_file, self.state_file):
+            if f is not None:
+                f.flush()
 
     def add(self, outcome, stat, *, retry=False):
         self.lines[outcome.file] = outcome.line
-        if self.report_file is None:
+        if self.state_file is None:
             return
         with self._writing():
             # the row first: a row without its state entry is merely recomputed on resume
-            self.report_file.write(outcome.line)
-            self.report_file.flush()
+            if self.report_file is not None:
+                self.report_file.write(outcome.line)
+                self.report_file.flush()
             if stat is not None:
-                entry = {"file": outcome.file, "stat": stat, **({"retry": True} if retry else {})}
-                self.state_file.write(json.dumps(entry) + "\n")
+                self.state_file.write(json.dumps(self._entry(outcome.file, stat, outcome.line, retry)) + "\n")
             self._flush()
 
     def close(self, *, quietly=False):
@@ -178,7 +227,8 @@ class ReportWriter:
         """Close, and write the sorted report; returns its text when there is no output file."""
         with self._writing():
             self.close()
-        text = self.head + "".join(self.lines[f] for f in sorted(self.lines))
+        ordered = [self.lines[f] for f in sorted(self.lines)]
+        text = render(ordered, self.format) if self.rendered else self.head + "".join(ordered)
         if self.output is None:
             return text
         partial = self.output + ".sorting"
@@ -195,6 +245,6 @@ def _open_for_writing(path):
 
 def is_error(line, output_format):
     """Whether a report line is an error record."""
-    if output_format == "jsonl":
+    if output_format != "csv":
         return json.loads(line).get("status") != "ok"
     return next(csv.reader([line]))[1] != "ok"

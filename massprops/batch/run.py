@@ -36,7 +36,7 @@ from ..model.frames import Pose
 __all__ = ["Settings", "Outcome", "BatchSummary", "FORMATS", "DEFAULT_TIMEOUT", "expand_inputs", "run_one",
            "run_chunk", "run_batch", "state_path", "default_jobs"]
 
-FORMATS = ("csv", "jsonl")
+FORMATS = ("csv", "jsonl", "json", "text")
 RETRIED = (WORKER_FAILED, TIMED_OUT)
 DEFAULT_TIMEOUT = 300.0
 _STATE_VERSION = 1
@@ -298,7 +298,10 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
         Report path; rows are appended as files finish, then the file is
         rewritten sorted.  None: the sorted text is returned in
         ``BatchSummary.text``.
-    output_format : {"csv", "jsonl"}
+    output_format : {"csv", "jsonl", "json", "text"}
+        ``json`` (one array) and ``text`` (each file's block as ``props``
+        prints it, then a count line) are written whole at the end; their
+        records, for ``resume``, are kept in the state file.
     jobs : int, optional
         Worker processes (default: all cores).  Each takes one file at a time;
         a worker that dies costs only its file (retried once in a fresh

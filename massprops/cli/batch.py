@@ -64,8 +64,9 @@ def _summary_line(summary):
 @click.command(cls=options.Command)
 @click.argument("paths", nargs=-1, required=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, writable=True),
-              help="Report file, written as files finish and sorted at the end.  Default (or -): stdout when done.")
-@options.format_option("csv", "jsonl")
+              help="Report file (in --format), written as files finish (csv, jsonl) and sorted at the end.  "
+                   "Default (or -): stdout when done.")
+@options.format_option("csv", "jsonl", "json", "text")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes (default: all cores); with --scheduler local, the Dask workers.")
 @click.option("--resume", is_flag=True,
@@ -98,7 +99,10 @@ def batch(paths, output, output_format, jobs, resume, recursive, scheduler, quie
     row, under the first name.  CSV columns are those of docs/conventions.md
     (inertia about the center of mass, local axes; Ixy, Ixz, Iyz are the tensor's
     own elements); --only leaves the columns of other quantities empty;
-    --format jsonl writes the full `props` objects.  A file that fails gets
+    --format jsonl writes the full `props` objects one a line, json one array
+    of them, text each file's block as `props` prints it and a count line
+    (json and text are written whole at the end).  The report, on stdout or
+    in the -o file whatever its name, is in the format --format gives.  A file that fails gets
     status=error and its message, and the run goes on; a worker that dies costs
     only its file (retried once).  Exit 0 if every file is ok, 1 if any failed
     (the report is still complete).
@@ -148,7 +152,8 @@ def _run(batch_lib, files, settings, output, output_format, jobs, resume, schedu
                                   on_start=progress.start, on_outcome=progress.update)
     except KeyboardInterrupt:
         progress.close()
-        kept = f"{output} keeps the files done; rerun with --resume to finish" if output else "nothing written"
+        keeper = output if output_format in ("csv", "jsonl") else f"{output}.state.jsonl"
+        kept = f"{keeper} keeps the files done; rerun with --resume to finish" if output else "nothing written"
         click.echo(f"\ninterrupted: {kept}", err=True)
         raise SystemExit(130) from None
     progress.close()

@@ -148,14 +148,46 @@ def robot():
     """
 
 
+# The keys of a link (and of the total) that each --only quantity prints; error bounds follow their quantity.
+_ONLY_KEYS = {"volume": ("volume",), "mass": ("mass",), "surface_area": ("surface_area",),
+              "center_of_mass": ("center_of_mass", "center_of_mass_global"),
+              "inertia": ("inertia_com", "inertia_com_global", "inertia_origin"),
+              "principal": ("principal_moments", "principal_axes", "degenerate", "principal_axes_rad")}
+
+
+def _keep_only(objects, only):
+    """The objects with the link and total quantities --only leaves out removed (their bounds too)."""
+    if not only:
+        return objects
+    dropped = {key for name, keys in _ONLY_KEYS.items() if name not in only for key in keys}
+
+    # check's computed inertial (at the declared mass) shows as principal moments in its table
+    computed_dropped = dropped - ({"inertia_com"} if "principal" in only else set())
+
+    def trim(part):
+        if not part:
+            return part
+        part = {k: v for k, v in part.items() if k not in dropped}
+        if isinstance(part.get("error"), dict):
+            part["error"] = {k: v for k, v in part["error"].items() if k not in dropped}
+        if isinstance(part.get("computed"), dict):
+            part["computed"] = {k: v for k, v in part["computed"].items() if k not in computed_dropped}
+        return part
+    return [{**obj, "links": [trim(link) for link in obj.get("links", [])],
+             **({"total": trim(obj["total"])} if obj.get("total") else {})} for obj in objects]
+
+
 @robot.command("props")
 @click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @model_options
+@options.only_option("Comma-separated quantities printed per link and for the total: volume, mass, surface_area, "
+                     "center_of_mass, inertia, principal.  Default: all (the total needs every link's mass, "
+                     "centre of mass and inertia, so those are computed whatever is printed).")
 @options.format_option("text", "json", "jsonl", "csv")
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes for several models (default: all cores).")
 @html_option
-def props(models, output_format, jobs, html_path, **kwargs):
+def props(models, only, output_format, jobs, html_path, **kwargs):
     """Every link's mass properties from its geometry, and the robot's total at --joints.
 
     Per link: mass, center of mass (link frame), inertia about it (link axes),
@@ -167,7 +199,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
     _one_model_for_html(models, html_path)
     settings = _settings("props", **kwargs)
     objects = _analyze_all(models, settings, jobs)
-    _emit(objects, output_format, props_text)
+    _emit(_keep_only(objects, only), output_format, props_text)
     _exit(objects, ("error",), bool(html_path) and _html(models, settings, objects, html_path))
 
 
@@ -175,6 +207,9 @@ def props(models, output_format, jobs, html_path, **kwargs):
 @click.argument("models", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @model_options
 @click.option("--declared-only", is_flag=True, help="Check the declared inertials alone (no meshes read).")
+@options.only_option("Comma-separated quantities printed of each link's geometry: volume, mass, surface_area, "
+                     "center_of_mass, inertia, principal.  Default: all.  The check itself (status, diagnoses, "
+                     "the comparison, --format junit) always compares mass, centre of mass and inertia.")
 @click.option("--strict", is_flag=True, help="Exit 1 also on mismatch and missing.")
 @click.option("--massless", multiple=True, metavar="GLOB", help="Links whose mass 0 is intended (repeatable).")
 @click.option("--inertia-rtol", type=options.POSITIVE, default=0.1, show_default=True,
@@ -188,7 +223,7 @@ def props(models, output_format, jobs, html_path, **kwargs):
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes for several models (default: all cores).")
 @html_option
-def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
+def check(models, declared_only, only, strict, massless, inertia_rtol, com_rtol, diagnosis_rtol, junit, output_format,
           jobs, html_path, **kwargs):
     """Check each link's declared inertial: valid, and consistent with its geometry.
 
@@ -209,7 +244,7 @@ def check(models, declared_only, strict, massless, inertia_rtol, com_rtol, diagn
     if output_format == "junit":
         click.echo(junit_xml(objects, failing), nl=False)
     else:
-        _emit(objects, output_format, check_text)
+        _emit(_keep_only(objects, only), output_format, check_text)
     if junit:
         with open(junit, "w", encoding="utf-8") as handle:
             handle.write(junit_xml(objects, failing))

@@ -5,7 +5,8 @@ from __future__ import annotations
 import click
 
 from ..dynamics.integrators import DEFAULT_METHOD, METHODS, SPLITTING
-from ..dynamics.output import plot_trajectory, plot_work_precision, summary, work_precision_table, write_csv
+from ..dynamics.output import (csv_text, drift, plot_trajectory, plot_work_precision, samples, summary,
+                               work_precision_table, write_csv)
 from . import options
 
 
@@ -36,14 +37,20 @@ from . import options
 @options.material_options
 @options.pose_options
 @options.repair_option
+@options.format_option("text", "json", "jsonl", "csv")
 def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, samples, out_csv, plot_path,
-         compare_methods, density, total_mass, unit, rotate, translate, repair):
+         compare_methods, density, total_mass, unit, rotate, translate, repair, output_format):
     """Integrate Euler's equations J' ω̇' = T' − ω' × J' ω' for the solid in FILE.
 
     Uses FILE's inertia about its center of mass (density, unit and pose as in
     `props`; the pose's rotation is the initial attitude).  Prints energy and
     momentum drift and, torque-free, the error against the closed-form
-    (Jacobi elliptic) solution.  Exit 1 on a bad file or option.
+    (Jacobi elliptic) solution.  --format json prints one object (the
+    principal moments, density, drift figures and the time series), jsonl the
+    time series one sample a line, csv the time series (the columns of --out);
+    with --compare-methods, the table's rows.  In json, jsonl and csv the line
+    naming the moments and density goes to stderr.  Exit 1 on a bad file or
+    option.
     """
     options.refuse_conflicts()
     from .. import dynamics
@@ -62,14 +69,17 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
     attitude = pose.rotation
     moments = properties.principal.moments
     click.echo(f"{file}: principal moments {moments[0]:.9g} {moments[1]:.9g} {moments[2]:.9g}"
-               f"{' (SI)' if unit else ''}; density {properties.density:.6g}{' kg/m³' if properties.unit else ''}")
+               f"{' (SI)' if unit else ''}; density {properties.density:.6g}{' kg/m³' if properties.unit else ''}",
+               err=output_format != "text")
     options.warn_units(density, unit, [properties.unit])
+    head = {"file": file, "density": properties.density, "unit": properties.unit,
+            "principal_moments": moments, "omega": list(omega), "duration": duration}
     if compare_methods:
         rows = options.guarded(dynamics.work_precision, properties.inertia_com, omega, duration,
                                attitude=attitude, samples=min(samples, 201), path=file)
         if rows is None:
             options.exit_with(True)
-        click.echo(work_precision_table(rows))
+        _emit_rows(rows, head, output_format)
         if plot_path and options.guarded(plot_work_precision, plot_path, rows,
                                          f"{file}: work–precision over {duration:g} s") is None:
             options.exit_with(True)
@@ -81,8 +91,7 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
         options.exit_with(True)
     exact = None if torque is not None else torque_free(properties.inertia_com, omega, trajectory.t,
                                                         attitude=attitude)
-    for line in summary(trajectory, torque, torque_frame, exact):
-        click.echo(line)
+    _emit_trajectory(trajectory, head, output_format, torque, torque_frame, exact)
     failed = False
     if out_csv:
         failed |= options.guarded(write_csv, out_csv, trajectory, path=out_csv) is None
@@ -90,3 +99,46 @@ def spin(file, omega, duration, torque, torque_frame, method, rtol, steps, sampl
         failed |= options.guarded(plot_trajectory, plot_path, trajectory,
                                   f"{file}: {trajectory.method}, ω'0 = {tuple(omega)} rad/s", si=bool(unit)) is None
     options.exit_with(failed)
+
+
+def _emit_rows(rows, head, output_format):
+    """The work–precision table in ``output_format``."""
+    from dataclasses import asdict
+
+    from .. import report
+    dicts = [asdict(r) for r in rows]
+    if output_format == "text":
+        click.echo(work_precision_table(rows))
+    elif output_format == "json":
+        options.echo(report.to_json({**head, "work_precision": dicts}))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(dicts), nl=False)
+    else:
+        options.echo(_csv(dicts), nl=False)
+
+
+def _csv(dicts):
+    import csv
+    import io
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=list(dicts[0]) if dicts else [], lineterminator="\n")
+    writer.writeheader()
+    writer.writerows({k: repr(v) if isinstance(v, float) else v for k, v in d.items()} for d in dicts)
+    return buffer.getvalue()
+
+
+def _emit_trajectory(trajectory, head, output_format, torque, torque_frame, exact):
+    """The run's summary (text), or it with the time series (json), or the time series (jsonl, csv)."""
+    from .. import report
+    if output_format == "text":
+        for line in summary(trajectory, torque, torque_frame, exact):
+            click.echo(line)
+    elif output_format == "json":
+        run = {"method": trajectory.method, "steps": trajectory.steps, "elapsed_s": trajectory.elapsed_s,
+               "torque": None if torque is None else list(torque), "torque_frame": torque_frame}
+        options.echo(report.to_json({**head, **run, **drift(trajectory, torque, torque_frame, exact),
+                                     "trajectory": samples(trajectory)}))
+    elif output_format == "jsonl":
+        options.echo(report.to_jsonl(samples(trajectory)), nl=False)
+    else:
+        options.echo(csv_text(trajectory), nl=False)

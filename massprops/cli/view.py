@@ -29,19 +29,23 @@ def _output(ctx, param, value):
 @options.material_options
 @options.pose_options
 @options.about_option
+@options.only_option("Comma-separated quantities the side panel lists: volume, mass, surface_area, center_of_mass, "
+                     "inertia, principal.  Default: all.  The drawing always shows the centre of mass, the "
+                     "principal axes and the equivalent box, so all are computed.")
 @options.cell_options
 @options.repair_option
 @options.self_intersection_option
 @options.unpack_option
 @options.graph_limit_options
-def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate, translate, about, density_field,
+def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate, translate, about, only, density_field,
          density_map, shell, repair, self_intersection, max_unpacked, max_instances, max_depth):
     """Draw each FILE as it was integrated: its centre of mass, principal axes and equivalent inertia box.
 
     The principal axes are drawn from the centre of mass with lengths by
     moment and labelled with their moments; the equivalent uniform box (or,
     with --glyph ellipsoid, the ellipsoid) has the part's mass and principal
-    moments.  A side panel gives the numbers with their bounds.  The .html
+    moments.  A side panel gives the numbers with their bounds (--only: some
+    of them).  The output's kind follows -o's suffix (no --format).  The .html
     page embeds its viewer (plotly, the `view` extra) and opens offline; the
     .png (matplotlib, the `plot` extra) shows front, top and side views.
     Options change the result as they do for `props`.  Exit 1 if a file failed.
@@ -63,7 +67,7 @@ def view(files, output, glyph, max_triangles, density, total_mass, unit, rotate,
                                  self_intersection=self_intersection)
         vertices, faces = display_triangles(read(path, max_unpacked=max_unpacked, max_instances=max_instances,
                                                  max_depth=max_depth))
-        return result, report.result_dict(result, about=about), vertices, faces
+        return result, report.result_dict(result, about=about, only=only), vertices, faces
 
     for path in files:
         part = options.guarded(one, path, path=path)

@@ -10,7 +10,8 @@ from ..model.errors import MassPropsError
 from ..plotting import pyplot
 from .integrators import trajectory_error
 
-__all__ = ["write_csv", "plot_trajectory", "plot_work_precision", "summary", "work_precision_table"]
+__all__ = ["write_csv", "plot_trajectory", "plot_work_precision", "summary", "drift", "samples", "csv_text",
+           "work_precision_table"]
 
 CSV_HEADER = "t,wx,wy,wz,qw,qx,qy,qz,Hx,Hy,Hz,K"
 
@@ -92,32 +93,66 @@ def plot_work_precision(path, rows, title):
     return _save(plt, figure, path)
 
 
+def drift(trajectory, torque, torque_frame, exact):
+    """The run's drift figures (and the error against the closed form when ``exact`` is given), by name.
+
+    Torque-free: ``energy_drift`` max |K − K0| / K0 and ``momentum_drift``
+    max |H − H0| / |H0|; with a torque: ``energy_ratio`` K(T) / K0 and, world
+    torque, ``momentum_drift`` max |H − (H0 + T t)| / max |H|.  Always
+    ``quaternion_norm`` max ||q| − 1|; with ``exact``, ``omega_error``
+    (relative) and ``attitude_error`` [rad].
+    """
+    out = {}
+    h0 = trajectory.momentum[0]
+    size = float(np.linalg.norm(h0)) or 1.0
+    k0 = float(trajectory.energy[0]) or 1.0
+    if torque is None:
+        out["energy_drift"] = float(np.abs(trajectory.energy - k0).max() / k0)
+        out["momentum_drift"] = float(np.linalg.norm(trajectory.momentum - h0, axis=1).max() / size)
+    else:
+        out["energy_ratio"] = float(trajectory.energy[-1] / k0)
+        if torque_frame == "world":
+            expected = h0 + np.outer(trajectory.t, torque)
+            scale = float(np.linalg.norm(expected, axis=1).max()) or 1.0
+            out["momentum_drift"] = float(np.linalg.norm(trajectory.momentum - expected, axis=1).max() / scale)
+    out["quaternion_norm"] = float(np.abs(np.linalg.norm(trajectory.quat, axis=1) - 1).max())
+    if exact is not None:
+        out["omega_error"], out["attitude_error"] = map(float, trajectory_error(trajectory, exact))
+    return out
+
+
 def summary(trajectory, torque, torque_frame, exact):
     """Lines describing drift (and the error against the closed form when torque-free)."""
     lines = [f"method {trajectory.method}: {trajectory.steps} "
              f"{'steps' if trajectory.method.startswith('split') else 'rhs evaluations'}, "
              f"{trajectory.elapsed_s:.3g} s, {len(trajectory.t)} samples to t = {trajectory.t[-1]:.6g} s"]
-    h0 = trajectory.momentum[0]
-    size = float(np.linalg.norm(h0)) or 1.0
-    k0 = float(trajectory.energy[0]) or 1.0
+    d = drift(trajectory, torque, torque_frame, exact)
     if torque is None:
-        lines.append(f"energy drift      max |K − K0| / K0   = {np.abs(trajectory.energy - k0).max() / k0:.3g}")
-        lines.append("momentum drift    max |H − H0| / |H0| = "
-                     f"{np.linalg.norm(trajectory.momentum - h0, axis=1).max() / size:.3g}")
+        lines.append(f"energy drift      max |K − K0| / K0   = {d['energy_drift']:.3g}")
+        lines.append(f"momentum drift    max |H − H0| / |H0| = {d['momentum_drift']:.3g}")
     else:
-        lines.append(f"energy            K(T) / K0 = {trajectory.energy[-1] / k0:.6g}")
-        if torque_frame == "world":
-            expected = h0 + np.outer(trajectory.t, torque)
-            scale = float(np.linalg.norm(expected, axis=1).max()) or 1.0
-            lines.append("momentum          max |H − (H0 + T t)| / max |H| = "
-                         f"{np.linalg.norm(trajectory.momentum - expected, axis=1).max() / scale:.3g}")
-    lines.append(f"quaternion norm   max ||q| − 1|      = "
-                 f"{np.abs(np.linalg.norm(trajectory.quat, axis=1) - 1).max():.3g}")
-    if exact is not None:
-        omega_error, attitude_error = trajectory_error(trajectory, exact)
-        lines.append(f"closed form       ω' error {omega_error:.3g} (relative), attitude error "
-                     f"{attitude_error:.3g} rad")
+        lines.append(f"energy            K(T) / K0 = {d['energy_ratio']:.6g}")
+        if "momentum_drift" in d:
+            lines.append(f"momentum          max |H − (H0 + T t)| / max |H| = {d['momentum_drift']:.3g}")
+    lines.append(f"quaternion norm   max ||q| − 1|      = {d['quaternion_norm']:.3g}")
+    if "omega_error" in d:
+        lines.append(f"closed form       ω' error {d['omega_error']:.3g} (relative), attitude error "
+                     f"{d['attitude_error']:.3g} rad")
     return lines
+
+
+def samples(trajectory):
+    """The time series as dicts, one per sample, keyed by the CSV columns (t, wx, …, K)."""
+    table = np.column_stack([trajectory.t, trajectory.omega, trajectory.quat, trajectory.momentum,
+                             trajectory.energy])
+    names = CSV_HEADER.split(",")
+    return [dict(zip(names, map(float, row))) for row in table]
+
+
+def csv_text(trajectory):
+    """The time series as CSV text (the columns of :func:`write_csv`)."""
+    rows = samples(trajectory)
+    return CSV_HEADER + "\n" + "".join(",".join(repr(v) for v in row.values()) + "\n" for row in rows)
 
 
 def work_precision_table(rows):

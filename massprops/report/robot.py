@@ -62,12 +62,14 @@ def _total_lines(obj):
     frame = "the model frame" if obj["frame"] in ("model", "world") else f"the frame of root link '{obj['frame']}'"
     moved = {k: v for k, v in obj.get("joints", {}).items() if v}
     at = "joints at 0" if not moved else "joints " + ", ".join(f"{k}={v:g}" for k, v in moved.items())
-    lines = [f"  total ({at}; in {frame}): mass {_g(total['mass'], 9)} kg ± {bound_text(total['error']['mass'])}, "
-             f"center of mass {_vector(total['center_of_mass'], 9)} m"]
-    for k, row in enumerate(total["inertia_com"]):
+    bound = total["error"].get("mass")
+    lines = [f"  total ({at}; in {frame}): mass {_g(total.get('mass'), 9)} kg"
+             + (f" ± {bound_text(bound)}" if bound is not None and "mass" in total else "")
+             + f", center of mass {_vector(total.get('center_of_mass'), 9)} m"]
+    for k, row in enumerate(total.get("inertia_com") or []):
         label = "inertia about it [kg·m²]" if k == 0 else ""
-        lines.append(f"    {label:<26}{_vector(row, 9)}" + (f"   ± {bound_text(total['error']['inertia_com'])}" if k == 0
-                                                              else ""))
+        lines.append(f"    {label:<26}{_vector(row, 9)}"
+                     + (f"   ± {bound_text(total['error']['inertia_com'])}" if k == 0 else ""))
     if total.get("left_out"):
         lines.append(f"    (leaves out the links that failed: {', '.join(total['left_out'])})")
     return lines
@@ -84,8 +86,8 @@ def props_text(obj):
     rows = [("link", "status", "mass [kg]", "± ", "center of mass [m]", "principal moments [kg·m²]", "geometry")]
     for link in obj["links"]:
         error = link.get("error") or {}
-        rows.append((link["link"], link["status"], _g(link["mass"], 9),
-                     bound_text(error["mass"]) if error.get("mass") else "", _vector(link["center_of_mass"]),
+        rows.append((link["link"], link["status"], _g(link.get("mass"), 9),
+                     bound_text(error["mass"]) if error.get("mass") else "", _vector(link.get("center_of_mass")),
                      _vector(link.get("principal_moments")), _geometry_text(link)))
     lines = [_header(obj), *_table(rows), *_total_lines(obj)]
     lines += _messages(obj)
@@ -176,8 +178,9 @@ def _csv_row(obj, link):
         row.update(zip(("declared_Ixx", "declared_Iyy", "declared_Izz", "declared_Ixy", "declared_Ixz",
                         "declared_Iyz"), (repr(d[a][b]) for a, b in _TENSOR)))
     computed = link.get("computed")
-    if computed:
+    if computed and computed.get("mass") is not None:
         row["computed_mass"] = repr(computed["mass"])
+    if computed and computed.get("inertia_com") is not None:
         c = computed["inertia_com"]
         row.update(zip(("computed_Ixx", "computed_Iyy", "computed_Izz", "computed_Ixy", "computed_Ixz",
                         "computed_Iyz"), (repr(c[a][b]) for a, b in _TENSOR)))
