@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import random_rotation
-from massprops import dynamics, frames
+from massprops import dynamics
+from massprops.model import frames
 from massprops.dynamics.closed_form import jacobi, period, polhode, torque_free
 from massprops.model.errors import OptionError
 
