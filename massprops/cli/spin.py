@@ -114,17 +114,7 @@ def _emit_rows(rows, head, output_format):
     elif output_format == "jsonl":
         options.echo(report.to_jsonl(dicts), nl=False)
     else:
-        options.echo(_csv(dicts), nl=False)
-
-
-def _csv(dicts):
-    import csv
-    import io
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=list(dicts[0]) if dicts else [], lineterminator="\n")
-    writer.writeheader()
-    writer.writerows({k: repr(v) if isinstance(v, float) else v for k, v in d.items()} for d in dicts)
-    return buffer.getvalue()
+        options.echo(report.to_csv(dicts, list(dicts[0]) if dicts else []), nl=False)
 
 
 def _emit_trajectory(trajectory, head, output_format, torque, torque_frame, exact):

@@ -30,11 +30,10 @@ def _writable(path):
 
 
 def write_csv(path, trajectory):
-    """The time series: t, ω' (body), quaternion of A (w,x,y,z), H (world), K."""
-    table = np.column_stack([trajectory.t, trajectory.omega, trajectory.quat, trajectory.momentum,
-                             trajectory.energy])
-    with _writable(path):
-        np.savetxt(path, table, delimiter=",", header=CSV_HEADER, comments="", fmt="%.17g")
+    """The time series: t, ω' (body), quaternion of A (w,x,y,z), H (world), K (:func:`csv_text`)."""
+    text = csv_text(trajectory)
+    with _writable(path), open(path, "w", encoding="utf-8", newline="") as handle:
+        handle.write(text)
     return path
 
 
@@ -151,8 +150,8 @@ def samples(trajectory):
 
 def csv_text(trajectory):
     """The time series as CSV text (the columns of :func:`write_csv`)."""
-    rows = samples(trajectory)
-    return CSV_HEADER + "\n" + "".join(",".join(repr(v) for v in row.values()) + "\n" for row in rows)
+    from ..report import to_csv
+    return to_csv(samples(trajectory), CSV_HEADER.split(","))
 
 
 def work_precision_table(rows):
