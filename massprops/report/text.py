@@ -60,6 +60,11 @@ def about_bound(obj, bounds, point, *, rotations=1):
     return shifted * 3 ** (rotations - 1) * (1 + 16 * u) ** rotations
 
 
+# meshio's cell type names as words, one and many.
+_CELL_NAMES = {"tetra": ("tetrahedron", "tetrahedra"), "hexahedron": ("hexahedron", "hexahedra"),
+               "voxel": ("voxel", "voxels"), "wedge": ("wedge", "wedges"), "pyramid": ("pyramid", "pyramids")}
+
+
 def _count(n, one, many):
     return f"{n} {one if n == 1 else many}"
 
@@ -68,7 +73,8 @@ def header(obj):
     """What a result was computed from, and with what density: ``12 triangles, 1 shell, density 1``."""
     checks = obj.get("checks", {})
     if "cells" in checks:
-        types = ", ".join(f"{n} {kind}" for kind, n in checks.get("cell_types", {}).items())
+        types = ", ".join(_count(n, *_CELL_NAMES.get(kind, (kind, kind + "s")))
+                          for kind, n in checks.get("cell_types", {}).items())
         what = _count(checks["cells"], "cell", "cells") + (f" ({types})" if types else "")
     else:
         shells = checks.get("shells")
