@@ -63,6 +63,7 @@ def counting(source, *args, **kwargs):
     return original(source, *args, **kwargs)
 builtins.exec = counting
 import massprops, massprops.cli, massprops.cli.props, massprops.mesh.solid, massprops.mesh.shells, massprops.report
+import massprops.io, massprops.compute                     # what props loads to read and integrate a file
 print(json.dumps(found))
 """
 

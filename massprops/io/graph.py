@@ -12,11 +12,10 @@ its moments.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..model.errors import MeshFormatError, option
+from ..model.records import record
 from ..mesh.surface import TriangleMesh
 
 __all__ = ["Graph", "check_totals", "placed_mesh", "MAX_TRIANGLES", "too_deep"]
@@ -24,7 +23,7 @@ __all__ = ["Graph", "check_totals", "placed_mesh", "MAX_TRIANGLES", "too_deep"]
 MAX_TRIANGLES = 50_000_000       # triangles once every instance is placed
 
 
-@dataclass(frozen=True)
+@record
 class Graph:
     """A file's meshes and where it places them.
 
