@@ -104,7 +104,7 @@ def _reduced(x, y, z, w):
     """A homogeneous point with ``w > 0`` and no common factor."""
     if w < 0:
         x, y, z, w = -x, -y, -z, -w
-    g = math.gcd(math.gcd(x, y), math.gcd(z, w))
+    g = math.gcd(x, y, z, w)
     if g > 1:
         x, y, z, w = x // g, y // g, z // g, w // g
     return (x, y, z, w)
