@@ -13,7 +13,7 @@ module finds the faces that bound it:
    the others (for two faces in one plane, along the other's edges): convex
    cells, split where a segment crosses them.  Intersection points are exact
    rationals (homogeneous integer coordinates on the vertices' power-of-two
-   grid), never rounded.
+   grid): no decision uses a rounded one.
 3. **Labels.** Each cell, and each patch of uncut faces joined across edges
    that exactly two faces share, gets the winding numbers on its two sides
    from one exact ray count (Simulation of Simplicity for the ray, so no ray
@@ -60,8 +60,6 @@ class Arrangement:
         rational value rounded to nearest, in the geometry's scaled frame.
     rounding : ndarray, shape (q, 3), float64
         An upper bound on each coordinate's rounding (0 where it is exact).
-    cut_faces, cells : int
-        Faces that were cut, and the cells they were cut into.
     negative : bool
         Some region has a negative winding number (a surface wound inward
         outside every other): it is not solid.
@@ -71,8 +69,6 @@ class Arrangement:
     pieces: np.ndarray
     points: np.ndarray
     rounding: np.ndarray
-    cut_faces: int
-    cells: int
     negative: bool
 
 
@@ -108,6 +104,12 @@ def _reduced(x, y, z, w):
     if g > 1:
         x, y, z, w = x // g, y // g, z // g, w // g
     return (x, y, z, w)
+
+
+def _turn(u, v, p, a1, a2):
+    """Orientation of integer points ``u``, ``v`` and homogeneous ``p`` (w > 0) seen on axes a1, a2, times w²."""
+    w = p[3]
+    return (w * u[a1] - p[a1]) * (w * v[a2] - p[a2]) - (w * u[a2] - p[a2]) * (w * v[a1] - p[a1])
 
 
 def _orient2(p, q, r, i, j):
@@ -196,9 +198,8 @@ class _Soup:
                 raise _Degenerate          # p on another face: which side it is on is not determined
         if facing == 0:
             return 0
-        px, py = p[a1], p[a2]
         for u, v in ((a, b), (b, c), (c, a)):
-            o = (w * u[a1] - px) * (w * v[a2] - py) - (w * u[a2] - py) * (w * v[a1] - px)
+            o = _turn(u, v, p, a1, a2)
             if o == 0:
                 o = sigma * (u[a2] - v[a2]) or sigma * (v[a1] - u[a1])
             if _sign(o) != facing:
@@ -305,11 +306,7 @@ class _Soup:
     @staticmethod
     def _holds(a, b, c, p, a1, a2):
         """Whether the projection of ``p`` lies in the closed projected triangle (a, b, c)."""
-        w = p[3]
-        signs = set()
-        for u, v in ((a, b), (b, c), (c, a)):
-            o = (w * u[a1] - p[a1]) * (w * v[a2] - p[a2]) - (w * u[a2] - p[a2]) * (w * v[a1] - p[a1])
-            signs.add(_sign(o))
+        signs = {_sign(_turn(u, v, p, a1, a2)) for u, v in ((a, b), (b, c), (c, a))}
         return not (1 in signs and -1 in signs)
 
 
@@ -674,4 +671,4 @@ def arrange(geometry, faces, weights, pairs):
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
     pieces = np.array(triangles, dtype=np.int64).reshape(-1, 3)
-    return Arrangement(out, pieces, *kept_corners.points(), int(cut.sum()), n_cells, negative)
+    return Arrangement(out, pieces, *kept_corners.points(), negative)

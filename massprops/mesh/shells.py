@@ -183,7 +183,7 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     if np.any(weights != 1):
         resolved.append("faces repeat")
     warnings = []
-    flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound))
+    flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound), ~area)
     if flat:
         warnings.append(f"{flat} shell{'s' if flat > 1 else ''} enclose{'s' if flat == 1 else ''} zero volume "
                         "(flat, or folded onto itself): the region each encloses is empty or cancels")
@@ -219,15 +219,13 @@ def _with_pieces(geometry, vertices, arranged):
     moved = np.linalg.norm(arranged.rounding * power + added, axis=1) * (1 + 1e-9)
     combined = np.vstack([vertices, points])
     n = vertices.shape[0]
-    swept = swept_volume(combined, arranged.pieces, np.arange(n, n + points.shape[0]), moved,
-                         apex=np.asarray(frame.reference, dtype=np.float64))
+    swept = swept_volume(combined, arranged.pieces, np.arange(n, n + points.shape[0]), moved, apex=reference)
     return combined, swept
 
 
-def _flat_shells(geometry, faces, labels, shells):
-    """How many of ``shells`` lie in one plane (exactly)."""
+def _flat_shells(geometry, faces, labels, shells, zero_area):
+    """How many of ``shells`` lie in one plane (exactly); ``zero_area`` flags the faces of zero area."""
     from ..core.intersect import orient3d_signs
-    zero_area = geometry.zero_area(faces)
     flat = 0
     for shell in shells.tolist():
         mine = labels == shell
