@@ -204,7 +204,7 @@ def test_a_cylinder_capped_by_two_spheres_is_a_capsule():
     assert link.checks["overlap"] == pytest.approx(twice, rel=1e-12)
     _covers(link.props, exact)
     assert link.props.error.volume <= 1e-9 * link.props.volume
-    assert any("overlap by 6.54e+04 cm³" in w for w in link.warnings)
+    assert any("overlap by 0.0654 m³" in w for w in link.warnings)
 
 
 def test_two_spheres_whose_boxes_meet_but_not_they_are_decided_exactly():

@@ -185,7 +185,7 @@ def _curved_union(link_name, members, tolerance):
     twice = total.volume - found.raw.volume
     said = []
     if twice > found.raw.e_volume + total.e_volume:
-        said.append(f"link {link_name!r}: geometries {_names(members)} overlap by {_cm3(twice)}: the link is their "
+        said.append(f"link {link_name!r}: geometries {_names(members)} overlap by {volume_text(twice)}: the link is their "
                     "union, each point counted once (checks.overlap)")
     if found.spent:
         relative = max(props.error.mass / props.mass, props.error.inertia_com / max(float(np.abs(
@@ -194,13 +194,6 @@ def _curved_union(link_name, members, tolerance):
                     f"{relative:.1e} of the link's mass and inertia, not the {tolerance:g} asked "
                     "({tolerance}): the refinement stopped at its budget")
     return props, said, {"overlap": max(twice, 0.0)}
-
-
-def _cm3(volume):
-    """A volume in m³ said in cm³ or mm³ as a robotics engineer reads it."""
-    if abs(volume) >= 1e-6:
-        return f"{volume * 1e6:.3g} cm³"
-    return f"{volume * 1e9:.3g} mm³"
 
 
 def _names(members):
