@@ -129,7 +129,8 @@ class Checked:
 
     ``resolved`` says what was united, dropped as nested or counted once as
     repeated (:attr:`massprops.mesh.solid.Solid.resolved`): empty when the
-    shells neither meet nor nest.
+    shells neither meet nor nest.  ``overlap_warning`` is the one of
+    ``warnings`` that states ``checks["overlap"]`` (None when none does).
     """
 
     moments: object
@@ -137,6 +138,7 @@ class Checked:
     checks: dict
     warnings: list
     resolved: tuple = ()
+    overlap_warning: str | None = None
 
 
 def checked_moments(mesh, *, path=None, order=2, repair=False, self_intersection=None):
@@ -198,7 +200,7 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
                         f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
                         "include the move")
     return Checked(moments, solid.mesh if solid.source is None else solid.source, check_dict, warnings,
-                   solid.resolved)
+                   solid.resolved, overlap_warning)
 
 
 def _outward(moments, solid, warnings):

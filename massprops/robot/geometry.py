@@ -234,6 +234,7 @@ class _MeshEntry:
     problem: MassPropsError | None = None
     raw: object = None
     resolved: bool = False
+    overlap_warning: str | None = None      # the one of ``warnings`` that states checks["overlap"]
 
 
 def clear_cache():
@@ -248,7 +249,7 @@ def _checked(mesh, path=None, repair=False):
     except (OpenMeshError, WindingError) as exc:
         return _MeshEntry(mesh, problem=exc)
     return _MeshEntry(checked.mesh, checked.moments, checked.checks, tuple(checked.warnings), raw=mesh,
-                      resolved=bool(checked.resolved))
+                      resolved=bool(checked.resolved), overlap_warning=checked.overlap_warning)
 
 
 def _read_checked(path, repair, limits=()):
@@ -314,7 +315,8 @@ def mesh_properties(geometry, path, density, *, repair=False, on_open=OnOpen(), 
         moments = replace(moments, area2=stretched_area2(mesh, stretch, moments.scale_exp))
     props = MassProperties.from_moments(moments, density=float(density), pose=geometry.pose, path=path)
     bounds = _vertex_bounds(mesh.vertices, scale, geometry.pose, geometry.stretch)
-    warnings, checks = mesh_overlap_in_si(entry.warnings, entry.checks, np.linalg.det(stretch))
+    warnings, checks = mesh_overlap_in_si(entry.warnings, entry.checks, np.linalg.det(stretch),
+                                          said=entry.overlap_warning)
     return props, bounds, int(mesh.faces.shape[0]), warnings, checks, _surface(entry, stretch, geometry)
 
 

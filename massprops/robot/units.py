@@ -36,14 +36,15 @@ def mass_text(kilograms, digits=3):
     return _text(float(kilograms), _MASSES, digits)
 
 
-def mesh_overlap_in_si(warnings, checks, volume_factor, where=""):
+def mesh_overlap_in_si(warnings, checks, volume_factor, where="", said=None):
     """A mesh file's own overlap (shells counted once) in SI after its scale: ``(warnings, checks)``.
 
     The mesh reader states it in the file's units³ (``volume counted more than
     once: 658.522``); a robot geometry scales the file by a map of determinant
     ``volume_factor``, so the volume becomes ``overlap · |volume_factor|`` m³
     and the warning says so in the link's words (after ``where``, a prefix such as ``"collision[0]: "``;
-    the robot's link table adds the link and the geometry itself).
+    the robot's link table adds the link and the geometry itself).  ``said`` is the mesh's own warning
+    of it (:attr:`massprops.compute.Checked.overlap_warning`), which ours replaces.
     """
     checks = dict(checks or {})
     overlap = float(checks.get("overlap") or 0.0)
@@ -51,13 +52,9 @@ def mesh_overlap_in_si(warnings, checks, volume_factor, where=""):
         return tuple(warnings), checks
     si = overlap * abs(float(volume_factor))
     checks["overlap"] = si
-    out = []
-    for warning in warnings:
-        if "checks.overlap" in warning and "counted more than once" in warning:
-            out.append(f"{where}the mesh's shells overlap by {volume_text(si)}; counted once (checks.overlap)")
-        elif "checks.overlap" in warning and "leaves out" in warning:
-            out.append(f"{where}the mesh's faces wind around {volume_text(-si)} more than their signed volume "
-                       "says; the region they wind around is counted (checks.overlap)")
-        else:
-            out.append(warning)
-    return tuple(out), checks
+    if si > 0:
+        ours = f"{where}the mesh's shells overlap by {volume_text(si)}; counted once (checks.overlap)"
+    else:
+        ours = (f"{where}the mesh's faces wind around {volume_text(-si)} more than their signed volume says; "
+                "the region they wind around is counted (checks.overlap)")
+    return tuple(ours if warning == said else warning for warning in warnings), checks
