@@ -54,7 +54,7 @@ def read_obj(path):
         Vertices no face uses whose coordinates are NaN or infinite (left out).
     """
     try:
-        vertices, faces, ignored = _core.read_obj(os.fspath(path))
+        vertices, faces, ignored = _core.read_obj(os.fspath(path), thread_count())
     except _core.ParseError as error:
         raise MeshFormatError(error.args[0], path=path, fix=error.args[1] or None) from None
     return np.asarray(vertices), np.asarray(faces), ignored

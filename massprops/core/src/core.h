@@ -87,7 +87,7 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
 /* Weld m triangles given by their corners (3m points, float32 if `single`, else float64). */
 int weld_corners(const void *corners, int single, int64_t m, int threads, MeshArrays *out, Failure *failure);
 /* Weld the vertices that faces use (int32 or int64 indices, checked), numbered by first use. */
-int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
+int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m, int threads,
                  MeshArrays *out, Failure *failure);
 
 /* ---- parsing (numbers.c, stl.c, obj.c) ------------------------------------------------- */
@@ -111,7 +111,7 @@ struct MeshArrays {
 };
 
 int read_stl(const char *path, int threads, MeshArrays *out, Failure *failure);
-int read_obj(const char *path, MeshArrays *out, Failure *failure);
+int read_obj(const char *path, int threads, MeshArrays *out, Failure *failure);
 
 /* Open a regular file for reading without blocking on FIFOs; -1 and a failure otherwise. */
 int open_regular(const char *path, int64_t *size, Failure *failure);

@@ -7,11 +7,17 @@
 
 int lines_open(LineReader *r, int fd, int64_t size, Failure *failure)
 {
+    return lines_open_range(r, fd, 0, size, failure);
+}
+
+int lines_open_range(LineReader *r, int fd, int64_t start, int64_t stop, Failure *failure)
+{
     memset(r, 0, sizeof *r);
     r->fd = fd;
-    r->size = size;
+    r->offset = start;
+    r->size = stop;
     r->failure = failure;
-    r->capacity = size + 16 < (int64_t)LINE_CHUNK ? (size_t)size + 16 : LINE_CHUNK;     /* small files: small buffers */
+    r->capacity = stop - start + 16 < (int64_t)LINE_CHUNK ? (size_t)(stop - start) + 16 : LINE_CHUNK;     /* small files: small buffers */
     r->buffer = malloc(r->capacity);
     if (!r->buffer) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");

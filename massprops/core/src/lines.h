@@ -24,6 +24,9 @@ typedef struct {
 } LineReader;
 
 int lines_open(LineReader *r, int fd, int64_t size, Failure *failure);
+/* The lines of bytes [start, stop) of the file, `start` a line start (a part of a file read on its
+ * own: its line numbers count from the part's start). */
+int lines_open_range(LineReader *r, int fd, int64_t start, int64_t stop, Failure *failure);
 void lines_close(LineReader *r);
 /* 1 and the next line [*text, *text + *length), 0 at the end, -1 on failure. */
 int lines_next(LineReader *r, const char **text, size_t *length);

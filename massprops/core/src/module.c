@@ -189,11 +189,11 @@ static PyObject *read_file(PyObject *args, int stl)
     MeshArrays mesh = {0};
     Failure failure = {0};
     int status, threads = 1;
-    if (!PyArg_ParseTuple(args, stl ? "O&i" : "O&", PyUnicode_FSConverter, &path, &threads))
+    if (!PyArg_ParseTuple(args, stl ? "O&i" : "O&|i", PyUnicode_FSConverter, &path, &threads))
         return NULL;
     Py_BEGIN_ALLOW_THREADS
     status = stl ? read_stl(PyBytes_AS_STRING(path), threads, &mesh, &failure)
-                 : read_obj(PyBytes_AS_STRING(path), &mesh, &failure);
+                 : read_obj(PyBytes_AS_STRING(path), threads, &mesh, &failure);
     Py_END_ALLOW_THREADS
     if (status != 0) {
         PyObject *name = PyUnicode_DecodeFSDefault(PyBytes_AS_STRING(path));
@@ -249,7 +249,7 @@ static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
     }
     Py_BEGIN_ALLOW_THREADS
     status = weld_indexed(vertices.buf, vertices.len / 24, faces.buf, kind == ARRAY_I32,
-                          faces.len / faces.itemsize / 3, &mesh, &failure);
+                          faces.len / faces.itemsize / 3, 1, &mesh, &failure);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&faces);
@@ -589,7 +589,7 @@ static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
-    {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path) -> (vertices, faces, ignored non-finite unused vertices)"},
+    {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners, threads) -> (vertices, faces, 0)"},
     {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},

@@ -23,7 +23,15 @@ typedef struct {
     Growable corners;         /* int64 per corner of the face being read */
     int64_t line;
     Failure *failure;
+    /* A chunk of the file read on its own (read_chunk): corners are stored before the vertices
+     * defined ahead of the chunk are known, a negative one as RELATIVE + (its index counted from
+     * the chunk's first vertex); `need` is how many vertices must come before the chunk for
+     * every corner read so far to exist. */
+    int chunk;
+    int64_t need;
 } ObjState;
+
+#define RELATIVE ((int64_t)1 << 61)      /* corners have at most 18 digits: below 2**60 in magnitude */
 
 static int64_t vertex_count(const ObjState *s) { return (int64_t)(s->vertices.size / (3 * sizeof(double))); }
 
@@ -115,6 +123,12 @@ static int corner_number(const char **p, const char *end, int64_t *given)
 static int64_t corner_index(ObjState *s, int64_t given)
 {
     int64_t defined = vertex_count(s);
+    if (s->chunk && given != 0) {
+        int64_t need = (given > 0 ? given : -given) - defined;
+        if (need > s->need)
+            s->need = need;
+        return given > 0 ? given - 1 : RELATIVE + defined + given;
+    }
     if (given == 0) {
         fail(s->failure, ERR_PARSE, "re-export the mesh",
              "line %lld: face corner 0 (OBJ numbers vertices from 1)", (long long)s->line);
@@ -252,29 +266,196 @@ static int read_statements(ObjState *s, LineReader *r)
     return status;
 }
 
-int read_obj(const char *path, MeshArrays *out, Failure *failure)
+static int read_sequential(int fd, int64_t size, MeshArrays *out, Failure *failure);
+
+/* ---- reading in chunks, on several threads ---------------------------------------------------
+ *
+ * The file is cut at statement starts into chunks; each is read on its own into its own vertices
+ * and faces, and the chunks are then joined in order, so the arrays are those of reading the file
+ * from start to end whatever the thread count.  A chunk's corners are resolved when the vertices
+ * before it are counted.  Any failure (a malformed line, a corner that does not exist, ...) is
+ * left to the reading from the start, which reports the first one with its line number. */
+
+#define CHUNK_MIN ((int64_t)1 << 20)      /* bytes: smaller files, or parts, are read on one thread */
+#define MAX_CHUNKS 64
+#define WINDOW 65536                      /* bytes looked at for a statement start */
+#define BEHIND 256                        /* of which before the nominal cut: the blanks ending a line */
+
+typedef struct {
+    int fd;
+    int64_t bounds[MAX_CHUNKS + 1];
+    int chunks;
+    ObjState states[MAX_CHUNKS];
+    Failure failures[MAX_CHUNKS];
+    int64_t first_vertex[MAX_CHUNKS + 1], first_face[MAX_CHUNKS + 1];
+    double *vertices;
+    index_t *faces;
+} Chunks;
+
+/* The first statement start at or after `from` (the byte after a '\n' ending a line that does
+ * not continue on the next), or -1 when none is found within the window (or it cannot tell). */
+static int64_t statement_start(int fd, int64_t size, int64_t from)
 {
+    char window[WINDOW];
+    int64_t base = from > BEHIND ? from - BEHIND : 0, k;
+    size_t want = size - base < (int64_t)sizeof window ? (size_t)(size - base) : sizeof window;
+    Failure ignored = {0};
+    if (read_exactly(fd, window, want, base, &ignored) != 0)
+        return -1;
+    for (k = from - base; k < (int64_t)want; k++) {
+        int64_t j = k;
+        if (window[k] != '\n')
+            continue;
+        if (j > 0 && window[j - 1] == '\r')
+            j--;
+        while (j > 0 && is_space(window[j - 1]))
+            j--;
+        if (j == 0)
+            return -1;                    /* the line may start before the window */
+        if (window[j - 1] != '\\')
+            return base + k + 1;
+    }
+    return -1;
+}
+
+static void read_chunk(void *arg, int64_t c)
+{
+    Chunks *work = arg;
+    ObjState *s = &work->states[c];
     LineReader r;
-    ObjState s;
+    s->failure = &work->failures[c];
+    s->chunk = 1;
+    if (lines_open_range(&r, work->fd, work->bounds[c], work->bounds[c + 1], s->failure) != 0)
+        return;
+    if (read_statements(s, &r) != 0 && s->failure->kind == ERR_NONE)
+        fail(s->failure, ERR_PARSE, NULL, "unreadable");
+    r.fd = -1;                                   /* shared: closed by the caller */
+    lines_close(&r);
+}
+
+/* Copy chunk c's vertices to their place and its corners, resolved, to theirs. */
+static void join_chunk(void *arg, int64_t c)
+{
+    Chunks *work = arg;
+    const ObjState *s = &work->states[c];
+    int64_t k, count = (int64_t)(s->faces.size / sizeof(index_t)), before = work->first_vertex[c];
+    const index_t *corners = (const index_t *)s->faces.data;
+    index_t *faces = work->faces + 3 * work->first_face[c];
+    memcpy(work->vertices + 3 * before, s->vertices.data, s->vertices.size);
+    for (k = 0; k < count; k++)
+        faces[k] = corners[k] >= RELATIVE / 2 ? corners[k] - RELATIVE + before : corners[k];
+}
+
+static void free_chunks(Chunks *work)
+{
+    int c;
+    for (c = 0; c < work->chunks; c++) {
+        grow_free(&work->states[c].vertices);
+        grow_free(&work->states[c].faces);
+        grow_free(&work->states[c].corners);
+    }
+}
+
+/* 1 and the welded mesh, or -1 and a failure, when read in chunks; 0 when the file is better
+ * read from its start (small, no statement start found to cut at, or something to report). */
+static int read_chunked(int fd, int64_t size, int threads, MeshArrays *out, Failure *failure)
+{
+    Chunks *work;
+    int c, wanted = threads * 8, status;
+    if (threads < 2 || size < 2 * CHUNK_MIN)
+        return 0;
+    if (wanted > size / CHUNK_MIN)
+        wanted = (int)(size / CHUNK_MIN);
+    if (wanted > MAX_CHUNKS)
+        wanted = MAX_CHUNKS;
+    if (!(work = calloc(1, sizeof *work)))
+        return 0;
+    work->fd = fd;
+    work->bounds[0] = 0;
+    for (c = 1; c < wanted; c++) {
+        int64_t start = statement_start(fd, size, size / wanted * c);
+        if (start < 0) {
+            free(work);
+            return 0;
+        }
+        if (start > work->bounds[work->chunks] && start < size)
+            work->bounds[++work->chunks] = start;
+    }
+    work->bounds[++work->chunks] = size;
+    parallel_blocks(threads, work->chunks, read_chunk, work);
+    work->first_vertex[0] = work->first_face[0] = 0;
+    for (c = 0; c < work->chunks; c++) {
+        const ObjState *s = &work->states[c];
+        if (work->failures[c].kind != ERR_NONE || s->need > work->first_vertex[c]) {
+            free_chunks(work);
+            free(work);
+            return 0;                            /* reported, with its line, by reading from the start */
+        }
+        work->first_vertex[c + 1] = work->first_vertex[c] + vertex_count(s);
+        work->first_face[c + 1] = work->first_face[c] + (int64_t)(s->faces.size / (3 * sizeof(index_t)));
+    }
+    if (work->first_face[work->chunks] == 0) {
+        free_chunks(work);
+        free(work);
+        return 0;
+    }
+    work->vertices = malloc((size_t)(work->first_vertex[work->chunks] > 0 ? work->first_vertex[work->chunks] : 1)
+                            * 3 * sizeof(double));
+    work->faces = malloc((size_t)work->first_face[work->chunks] * 3 * sizeof(index_t));
+    if (!work->vertices || !work->faces) {
+        free(work->vertices);
+        free(work->faces);
+        free_chunks(work);
+        free(work);
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    parallel_blocks(threads, work->chunks, join_chunk, work);
+    free_chunks(work);
+    status = weld_indexed(work->vertices, work->first_vertex[work->chunks], work->faces, 0,
+                          work->first_face[work->chunks], threads, out, failure);
+    free(work->vertices);
+    free(work->faces);
+    free(work);
+    return status == 0 ? 1 : -1;
+}
+
+int read_obj(const char *path, int threads, MeshArrays *out, Failure *failure)
+{
     int64_t size;
     int fd = open_regular(path, &size, failure), status;
     memset(out, 0, sizeof *out);
-    memset(&s, 0, sizeof s);
-    s.failure = failure;
     if (fd < 0)
         return -1;
-    if (lines_open(&r, fd, size, failure) != 0) {
-        close(fd);
+    status = read_chunked(fd, size, threads, out, failure);
+    if (status == 0)
+        status = read_sequential(fd, size, out, failure);
+    else
+        status = status == 1 ? 0 : -1;
+    close(fd);
+    return status;
+}
+
+/* ---- reading from the start, on one thread ---------------------------------------------------- */
+
+static int read_sequential(int fd, int64_t size, MeshArrays *out, Failure *failure)
+{
+    LineReader r;
+    ObjState s;
+    int status;
+    memset(&s, 0, sizeof s);
+    s.failure = failure;
+    if (lines_open(&r, fd, size, failure) != 0)
         return -1;
-    }
     status = read_statements(&s, &r);
+    r.fd = -1;                                   /* closed by the caller */
     lines_close(&r);
     grow_free(&s.corners);
     if (status == 0 && s.faces.size == 0)
         fail(failure, ERR_PARSE, "export the part as a closed surface", "the OBJ file holds no faces");
     if (status == 0 && failure->kind == ERR_NONE)
         status = weld_indexed((const double *)s.vertices.data, vertex_count(&s), s.faces.data, 0,
-                              (int64_t)(s.faces.size / (3 * sizeof(index_t))), out, failure);
+                              (int64_t)(s.faces.size / (3 * sizeof(index_t))), 1, out, failure);
     else
         status = -1;
     grow_free(&s.vertices);

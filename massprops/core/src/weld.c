@@ -219,6 +219,7 @@ typedef struct {
     PointSource source;
     void *context;
     int64_t count;                      /* points */
+    int64_t expected;                   /* distinct points expected (the tables' first size) */
     int ranges;
     Welder welders[MAX_RANGES];
     index_t *out;
@@ -237,7 +238,7 @@ static void weld_range(void *arg, int64_t t)
     int64_t first = range_start(work, t), last = range_start(work, t + 1), k;
     double *block = malloc((size_t)(last - first < WELD_BLOCK ? last - first + 1 : WELD_BLOCK) * 3 * sizeof(double));
     /* the first range's table ends up holding every vertex: sized for all of them at once */
-    if (!block || welder_init(&work->welders[t], (t == 0 ? work->count : last - first) / 5 + 16) != 0) {
+    if (!block || welder_init(&work->welders[t], (t == 0 ? work->expected : work->expected / work->ranges) + 16) != 0) {
         free(block);
         work->failed[t] = 1;
         fail(&work->failures[t], ERR_MEMORY, NULL, "out of memory");
@@ -258,7 +259,9 @@ static void weld_range(void *arg, int64_t t)
     free(block);
 }
 
-int weld_source(PointSource source, void *context, int64_t count, int threads, MeshArrays *out, Failure *failure)
+/* weld_source, the tables first sized for `expected` distinct points. */
+static int weld_stream(PointSource source, void *context, int64_t count, int64_t expected, int threads,
+                       MeshArrays *out, Failure *failure)
 {
     RangeWork work;
     int t;
@@ -274,6 +277,7 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
     work.source = source;
     work.context = context;
     work.count = count;
+    work.expected = expected;
     work.ranges = count < 300000 || threads < 1 ? 1 : threads > MAX_RANGES ? MAX_RANGES : threads;
     work.out = out->faces;
     parallel_blocks(work.ranges, work.ranges, weld_range, &work);
@@ -314,23 +318,12 @@ int weld_source(PointSource source, void *context, int64_t count, int threads, M
     return 0;
 }
 
-/* ---- whole arrays -------------------------------------------------------------------- */
-
-static int finish(Welder *w, MeshArrays *out, Failure *failure)
+int weld_source(PointSource source, void *context, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
-    out->n = w->count;
-    out->vertices = (double *)w->vertices.data;
-    w->vertices.data = NULL;
-    if (out->n == 0) {
-        out->vertices = malloc(3 * sizeof(double));          /* a valid pointer for an empty array */
-        if (!out->vertices) {
-            fail(failure, ERR_MEMORY, NULL, "out of memory");
-            return -1;
-        }
-    }
-    welder_free(w);
-    return 0;
+    return weld_stream(source, context, count, count / 5, threads, out, failure);     /* a vertex in ~6 corners */
 }
+
+/* ---- whole arrays -------------------------------------------------------------------- */
 
 typedef struct {
     const void *corners;
@@ -357,22 +350,48 @@ int weld_corners(const void *corners, int single, int64_t m, int threads, MeshAr
     return weld_source(corner_source, &array, 3 * m, threads, out, failure);
 }
 
-int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
+typedef struct {
+    const double *vertices;
+    const int64_t *order;               /* input vertex of each point, in order of first use */
+    int64_t count;                      /* points in order (the source pads to whole triangles) */
+} FirstUses;
+
+/* Points [first, first + count) of the vertices in order of first use; past the end, the last. */
+static int first_use_source(void *context, int64_t first, int64_t count, double *points, Failure *failure)
+{
+    const FirstUses *uses = context;
+    int64_t j;
+    (void)failure;
+    for (j = 0; j < count; j++) {
+        int64_t k = first + j < uses->count ? first + j : uses->count - 1;
+        memcpy(points + 3 * j, uses->vertices + 3 * uses->order[k], 3 * sizeof(double));
+    }
+    return 0;
+}
+
+/* The vertices the faces use, in order of first use, are welded as a stream of points (the
+ * pipelined, multi-threaded weld of weld_source); a vertex used again takes the number its
+ * first use got.  Numbers are those of welding every corner in order, one at a time. */
+int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m, int threads,
                  MeshArrays *out, Failure *failure)
 {
-    Welder w;
-    int64_t k, *renumber = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    MeshArrays welded = {0};
+    FirstUses uses;
+    int64_t k, count = 0, *rank = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    int64_t *order = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
     out->m = m;
     out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
-    if (!renumber || !out->faces || welder_init(&w, n) != 0) {
-        free(renumber);
+    if (!rank || !order || !out->faces) {
+        free(rank);
+        free(order);
         free(out->faces);
         out->faces = NULL;
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
+    advise_huge(out->faces, (size_t)m * 3 * sizeof(index_t));
     for (k = 0; k < n; k++)
-        renumber[k] = -1;
+        rank[k] = -1;
     for (k = 0; k < 3 * m; k++) {
         int64_t given = faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
         if (given < 0 || given >= n) {
@@ -381,22 +400,33 @@ int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces
                  (long long)given, (long long)n);
             break;
         }
-        if (renumber[given] < 0 && (renumber[given] = weld_point64(&w, vertices + 3 * given)) < 0) {
-            fail(failure, ERR_MEMORY, NULL, "out of memory");
-            break;
+        if (rank[given] < 0) {
+            rank[given] = count;
+            order[count++] = given;
         }
-        out->faces[k] = renumber[given];
+        out->faces[k] = rank[given];
     }
     out->ignored = 0;
     for (k = 0; k < n && failure->kind == ERR_NONE; k++)
-        out->ignored += renumber[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
-                                             && isfinite(vertices[3 * k + 2]));
-    free(renumber);
+        out->ignored += rank[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
+                                         && isfinite(vertices[3 * k + 2]));
+    free(rank);
+    if (failure->kind == ERR_NONE) {
+        uses.vertices = vertices;
+        uses.order = order;
+        uses.count = count;
+        weld_stream(first_use_source, &uses, (count + 2) / 3 * 3, count, threads, &welded, failure);
+    }
+    free(order);
     if (failure->kind != ERR_NONE) {
-        welder_free(&w);
         free(out->faces);
         out->faces = NULL;
         return -1;
     }
-    return finish(&w, out, failure);
+    for (k = 0; k < 3 * m; k++)                  /* rank of first use -> welded vertex */
+        out->faces[k] = welded.faces[out->faces[k]];
+    free(welded.faces);
+    out->vertices = welded.vertices;
+    out->n = welded.n;
+    return 0;
 }
