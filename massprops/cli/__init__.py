@@ -8,13 +8,21 @@ package imports click, prints, or exits.
 from __future__ import annotations
 
 import errno
+import gc
 import importlib
 import importlib.util
 import os
 import sys
 import warnings
 
-import click
+_collecting = gc.isenabled()
+gc.disable()                            # while click loads: see massprops/__init__.py
+try:
+    import click
+finally:
+    if _collecting:
+        gc.enable()
+    del _collecting
 
 # name -> (module, function); each module is massprops/cli/<module>.py
 COMMANDS = {
@@ -93,3 +101,6 @@ def main():
     # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
     if not os.environ.get("MASSPROPS_DEBUG"):
         warnings.filterwarnings("ignore", category=RuntimeWarning)
+    # What is loaded now (modules, classes, click's commands) lives until the process ends: the
+    # cyclic garbage collector need not look at it again, during the command or at exit.
+    gc.freeze()
