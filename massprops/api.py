@@ -12,9 +12,10 @@ from dataclasses import replace
 
 import os
 from collections.abc import Iterable, Mapping
-from typing import Any, Union
+from typing import TYPE_CHECKING, Any, Union
 
-from numpy.typing import ArrayLike
+if TYPE_CHECKING:                       # numpy.typing costs ~7M instructions at start-up
+    from numpy.typing import ArrayLike
 
 from . import compute
 from .result import Result
@@ -27,7 +28,11 @@ __all__ = ["mass_properties", "Source"]
 # What mass_properties takes: a file, a TriangleMesh, a trimesh mesh or scene, an object with vertices and
 # faces (or triangles), a (vertices, faces) pair, vertices (with faces as the second argument), or an
 # (m, 3, 3) array of triangles.
-Source = Union[str, bytes, os.PathLike, ArrayLike, tuple, Any]
+# (numpy.typing.ArrayLike among them: named for type checkers only.)
+if TYPE_CHECKING:
+    Source = Union[str, bytes, os.PathLike, ArrayLike, tuple, Any]
+else:
+    Source = Union[str, bytes, os.PathLike, tuple, Any]
 
 
 def mass_properties(source: Source, faces: ArrayLike | None = None, *, density: float | None = None,

@@ -25,8 +25,6 @@ Two things the file says about its coordinates are applied, each with a note:
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import numpy as np
 
 from ..model.errors import MeshFormatError
@@ -40,8 +38,8 @@ __all__ = ["read", "read_graph", "asset", "check_instances"]
 # Rows: the new x, y, z as signed picks of the old axes (a proper rotation each).
 _TO_Z_UP = {"Z_UP": np.eye(3), "Y_UP": np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]),
             "X_UP": np.array([[0.0, -1, 0], [0, 0, -1], [1, 0, 0]])}
-_UNITS = {Fraction(1): "m", Fraction(1, 100): "cm", Fraction(1, 1000): "mm", Fraction(1, 10 ** 6): "um",
-          Fraction(254, 10000): "in", Fraction(3048, 10000): "ft"}
+# metres per unit, reduced (numerator, denominator) -> unit  (fractions is imported when a file has a unit)
+_UNITS = {(1, 1): "m", (1, 100): "cm", (1, 1000): "mm", (1, 10 ** 6): "um", (127, 5000): "in", (381, 1250): "ft"}
 
 
 def asset(path):
@@ -66,6 +64,7 @@ def asset(path):
 
 def _unit_factor(meter, path):
     """``<unit meter=...>`` as an exact positive Fraction within 1e-300 to 1e300."""
+    from fractions import Fraction
     text = meter.strip()
     try:
         # A decimal is checked as a float first: Fraction("1e999999999") builds a billion-digit integer.
@@ -256,7 +255,7 @@ def read(path, *, max_instances=None, max_depth=None):
     unit, scale = None, None
     if graph.unit:
         factor = _unit_factor(graph.unit, path)
-        unit = _UNITS.get(factor)
+        unit = _UNITS.get(factor.as_integer_ratio())
         if unit is None:
             unit, scale = "m", float(factor)
             notes.append(f"applied the file's <unit meter=\"{graph.unit}\">: coordinates scaled to metres")

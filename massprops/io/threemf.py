@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import posixpath
 import zipfile
-from array import array
 
 import numpy as np
 
@@ -85,6 +84,7 @@ class _Part:
                                   fix=_FIX) from None
 
     def _clear(self):
+        from array import array                        # not on the path of the other formats
         self._xyz, self._abc, self._components, self._meshes = array("d"), array("q"), [], 0
 
     def _take(self, event, element):

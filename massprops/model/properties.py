@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import field, replace
-from fractions import Fraction
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -26,23 +25,42 @@ from .errors import MeshGeometryError, OptionError
 from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia
 from .principal import DEFAULT_RTOL, Principal, principal
 
-__all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor"]
+__all__ = ["MassProperties", "ErrorBounds", "UNITS", "unit_factor", "unit_ratio", "unit_length"]
 
-UNITS = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000), "um": Fraction(1, 10 ** 6),
-         "in": Fraction(254, 10000), "ft": Fraction(3048, 10000)}
-_NO_UNIT = Fraction(1)
+# Metres per unit, exactly, as a reduced (numerator, denominator); UNITS gives them as Fractions
+# (fractions and decimal are imported when first asked for: not on the props path).
+_RATIOS = {"m": (1, 1), "cm": (1, 100), "mm": (1, 1000), "um": (1, 10 ** 6), "in": (127, 5000), "ft": (381, 1250)}
 # One shared identity pose: making a Pose costs more than the rest of a small part's result.
 _NO_POSE = Pose()
 
 
-def unit_factor(unit):
-    """Metres per mesh unit, exactly; 1 when no unit is declared."""
+def unit_ratio(unit):
+    """Metres per mesh unit as a reduced ``(numerator, denominator)``; ``(1, 1)`` when no unit is declared."""
     if unit is None:
-        return _NO_UNIT
+        return 1, 1
     try:
-        return UNITS[unit]
+        return _RATIOS[unit]
     except KeyError:
-        raise OptionError(f"unknown unit {unit!r}", fix=f"pick one of {', '.join(UNITS)}") from None
+        raise OptionError(f"unknown unit {unit!r}", fix=f"pick one of {', '.join(_RATIOS)}") from None
+
+
+def unit_length(unit):
+    """Metres per mesh unit, the float nearest :func:`unit_ratio` (``float(unit_factor(unit))``)."""
+    num, den = unit_ratio(unit)
+    return num / den
+
+
+def unit_factor(unit):
+    """Metres per mesh unit, exactly (a :class:`fractions.Fraction`); 1 when no unit is declared."""
+    from fractions import Fraction
+    return Fraction(*unit_ratio(unit))
+
+
+def __getattr__(name):
+    if name == "UNITS":                 # {unit: metres per unit, a Fraction}
+        from fractions import Fraction
+        return {unit: Fraction(*ratio) for unit, ratio in _RATIOS.items()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @record
@@ -119,6 +137,7 @@ def _ratio(value):
         return float(value).as_integer_ratio()
     if type(value) is int:
         return value, 1
+    from fractions import Fraction
     return Fraction(value).as_integer_ratio()
 
 
@@ -286,7 +305,7 @@ class MassProperties:
         without Fraction's gcd at every step.
         """
         _check_material(density, mass)
-        length = (*unit_factor(unit).as_integer_ratio(), moments.scale_exp)     # unit_n / unit_d · 2**s
+        length = (*unit_ratio(unit), moments.scale_exp)                         # unit_n / unit_d · 2**s
         unit_n, unit_d, s = length
         e0 = moments.det_error
         m_n, m_d = float(moments.det_sum).as_integer_ratio()                    # a NaN or infinite sum raises here
@@ -325,7 +344,7 @@ class MassProperties:
                              inertia_com=error_inertia)
         if pose is not None and unit is not None:
             # A pose's translation is given in mesh units, like the mesh; outputs are SI.
-            pose = Pose(pose.rotation, pose.translation * float(unit_factor(unit)))
+            pose = Pose(pose.rotation, pose.translation * unit_length(unit))
         return cls(*values, com, inertia, bounds, pose or _NO_POSE, unit)
 
     @classmethod

@@ -24,12 +24,12 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from functools import lru_cache
-from typing import NamedTuple
 
 import numpy as np
 
 from .principal import axis_angle_bounds, physical_checks
-from .properties import unit_factor
+from .properties import unit_length
+from .records import tuple_record
 
 __all__ = ["coordinate_resolution", "VertexColumns", "vertex_columns", "with_input_resolution",
            "resolution_warning", "annotate"]
@@ -40,7 +40,8 @@ WARN_RELATIVE_STEP = 1e-5
 _BLOCK = 1 << 16                  # vertices per pass of the distance bound
 
 
-class VertexColumns(NamedTuple):
+@tuple_record
+class VertexColumns:
     """A mesh's vertices as three contiguous columns, shape (3, n), with each axis's lowest and highest value."""
 
     columns: np.ndarray
@@ -114,7 +115,7 @@ def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
     vertices : VertexColumns, optional
         :func:`vertex_columns` of ``mesh.vertices``, if already made.
     """
-    length = float(unit_factor(props.unit))
+    length = unit_length(props.unit)
     columns, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
     # max |x| is the larger of |min| and |max|: exactly coordinate_resolution's input.
     delta = _half_ulp(max(abs(float(high.max())), abs(float(low.min()))), mesh.source_dtype)
@@ -149,7 +150,7 @@ def resolution_warning(props, mesh, *, vertices=None):
     """
     _, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
     step = 2.0 * props.error.input_resolution.get("coordinates", 0.0)
-    extent = float((high - low).max()) * float(unit_factor(props.unit))
+    extent = float((high - low).max()) * unit_length(props.unit)
     if not step or not extent or step / extent <= WARN_RELATIVE_STEP:
         return None
     dtype = np.dtype(mesh.source_dtype).name
