@@ -51,7 +51,10 @@ def test_a_bad_binary_stl_also_fails_without_heavy_imports(tmp_path):
 
 
 # Source text run with exec while importing massprops and its CLI: a dataclass writes and compiles
-# its methods this way (about 0.3 ms each), which start-up does without (massprops.model.records).
+# its methods this way (about 0.3 ms each), which start-up does without (massprops.model.records);
+# and any other text compiled (a NamedTuple's annotations and the __new__ namedtuple evaluates),
+# seen by the interpreter's audit hook (a module's own source, when no bytecode is cached, is not
+# generated code).
 GENERATED = """
 import builtins, json, sys
 import numpy, click
@@ -62,6 +65,10 @@ def counting(source, *args, **kwargs):
         found.append(sys._getframe(1).f_code.co_filename)
     return original(source, *args, **kwargs)
 builtins.exec = counting
+def audit(event, args):
+    if event == "compile" and not str(args[1]).endswith(".py"):
+        found.append(f"compile {args[1]}")
+sys.addaudithook(audit)
 import massprops, massprops.cli, massprops.cli.props, massprops.mesh.solid, massprops.mesh.shells, massprops.report
 import massprops.io, massprops.compute                     # what props loads to read and integrate a file
 print(json.dumps(found))
@@ -93,3 +100,20 @@ def test_a_thread_count_that_is_not_a_whole_number_is_refused(monkeypatch, runne
     result = runner.invoke(main, ["props", str(path)])
     assert result.exit_code != 0 and "MASSPROPS_THREADS must be a whole number" in result.output
     assert "Traceback" not in result.output
+
+
+COLLECTOR = """
+import gc, json
+gc.disable()
+import massprops
+paused = gc.isenabled()
+gc.enable()
+import massprops.cli
+print(json.dumps([paused, gc.isenabled()]))
+"""
+
+
+def test_importing_massprops_leaves_the_garbage_collector_as_it_was():
+    """Start-up pauses the cyclic collector while modules load (issue 24), and restores what it found."""
+    done = subprocess.run([sys.executable, "-c", COLLECTOR], capture_output=True, text=True, check=True)
+    assert json.loads(done.stdout) == [False, True]

@@ -26,9 +26,9 @@ in mesh units, its box's volume between 2**-1000 and 2**1023 mesh units³
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 from ..model.errors import MeshGeometryError
+from ..model.records import tuple_record
 from . import _core
 
 __all__ = ["reference_frame", "Frame", "frame_of", "check_box_range"]
@@ -108,7 +108,8 @@ def _short_centre(low, high):
         return low
 
 
-class Frame(NamedTuple):
+@tuple_record
+class Frame:
     """Where and at what scale a part is integrated."""
 
     reference: tuple            # 3 floats, subtracted exactly

@@ -48,15 +48,17 @@ _RENAMED = {"package": ("packages={'NAME': 'DIR'}", "--package NAME=DIR"),
 # On/off switches with an option each way: {name=True} is --name, {name=False} is --no-name.
 _SWITCHES = frozenset({"self_intersection"})
 OPTION_NAMES = _FLAGS | _VALUED | _SWITCHES | frozenset(_RENAMED)
-_PLACEHOLDER = re.compile(r"\{([a-z_]+)(?:=([A-Za-z_.,0-9|:*=-]+))?\}")
+# Patterns are kept as text and compiled by the re module on first use (and cached there): compiling
+# them at import would cost every start-up about 0.7 ms, for messages most runs never write.
+_PLACEHOLDER = r"\{([a-z_]+)(?:=([A-Za-z_.,0-9|:*=-]+))?\}"
 STYLES = ("python", "cli")
 
 
 # Characters a terminal acts on (C0 and C1 controls: ESC starts escape sequences, BEL rings, VT and FF and
 # NEL and the Unicode separators break lines), invisible reordering marks, and lone surrogates (bytes of a
 # file that are not UTF-8) which no terminal encoding can print.
-_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ufeff"
-                          "\ud800-\udfff]")
+_UNPRINTABLE = ("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069\ufeff"
+                "\ud800-\udfff]")
 
 
 def _escaped(match):
@@ -66,7 +68,7 @@ def _escaped(match):
     return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
 
 
-_LINE_BREAK = re.compile("[ \t]*[\n\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]+[ \t]*")
+_LINE_BREAK = "[ \t]*[\n\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]+[ \t]*"
 
 
 def printable(text):
@@ -79,13 +81,13 @@ def printable(text):
     applying it twice changes nothing more.
     """
     text = str(text)
-    if not _UNPRINTABLE.search(text):
+    if not re.search(_UNPRINTABLE, text):
         return text
-    return _UNPRINTABLE.sub(_escaped, _LINE_BREAK.sub(" ", text))
+    return re.sub(_UNPRINTABLE, _escaped, re.sub(_LINE_BREAK, " ", text))
 
 
 # A Python class name in a message (``DaeMalformedError:``, ``BadZipFile:``): users are told what, not which class.
-_CLASS_NAME = re.compile(r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|ZipFile)\b:?\s*")
+_CLASS_NAME = r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|ZipFile)\b:?\s*"
 # Exceptions a third-party reader raises on its own bugs: their text is about its code, not the file.
 _INTERNAL = (AttributeError, TypeError, KeyError, IndexError, NameError, AssertionError, RecursionError,
              ZeroDivisionError)
@@ -99,7 +101,7 @@ def reason(exc, internal="its reader failed on this content"):
     """
     if isinstance(exc, _INTERNAL):
         return internal
-    text = _CLASS_NAME.sub("", str(exc)).strip().strip(":").strip()
+    text = re.sub(_CLASS_NAME, "", str(exc)).strip().strip(":").strip()
     return text or internal
 
 
@@ -130,7 +132,7 @@ def render_options(text, style="python"):
     """``text`` with its option placeholders spelled for ``style`` (``"python"`` or ``"cli"``)."""
     if style not in STYLES:
         raise ValueError(f"style must be one of {STYLES}, got {style!r}")
-    return _PLACEHOLDER.sub(lambda m: _spell(m, style), text) if "{" in text else text
+    return re.sub(_PLACEHOLDER, lambda m: _spell(m, style), text) if "{" in text else text
 
 
 class MassPropsError(Exception):

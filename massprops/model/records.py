@@ -16,10 +16,11 @@ defines itself is kept.
 from __future__ import annotations
 
 import dataclasses
+import operator
 import reprlib
 from dataclasses import MISSING, FrozenInstanceError
 
-__all__ = ["record"]
+__all__ = ["record", "tuple_record"]
 
 
 def record(cls=None, /, *, eq=True):
@@ -94,3 +95,47 @@ def _make(cls, eq):
             method.__qualname__ = f"{qualname}.{name}"
             setattr(cls, name, method)
     return cls
+
+
+def tuple_record(cls):
+    """``cls`` (fields as annotations, as for ``typing.NamedTuple``) as a tuple with named fields.
+
+    What ``NamedTuple`` gives the code that uses it (construction by position
+    or keyword, attribute access, unpacking, equality and hashing as tuples,
+    ``_fields``, a repr with the names, pickling), without the source text
+    ``namedtuple`` writes and evaluates, and the annotations ``typing``
+    compiles, for every class at import.  Fields have no defaults.
+    """
+    names = tuple(cls.__dict__.get("__annotations__", ()))
+    qualname = cls.__qualname__
+
+    def __new__(klass, *args, **kwargs):
+        if kwargs or len(args) != len(names):
+            values = dict(zip(names, args))
+            for key, value in kwargs.items():
+                if key not in names or key in values:
+                    raise TypeError(f"{qualname}() got an unexpected or repeated argument {key!r}")
+                values[key] = value
+            if len(args) > len(names) or len(values) != len(names):
+                raise TypeError(f"{qualname}() takes the {len(names)} arguments {', '.join(names)}")
+            args = tuple(values[name] for name in names)
+        return tuple.__new__(klass, args)
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(f'{n}={v!r}' for n, v in zip(names, self))})"
+
+    def __getnewargs__(self):
+        return tuple(self)
+
+    namespace = {name: value for name, value in cls.__dict__.items()
+                 if name not in ("__dict__", "__weakref__", "__annotations__")}
+    for name, method in (("__new__", __new__), ("__repr__", __repr__), ("__getnewargs__", __getnewargs__)):
+        if name not in namespace:
+            method.__qualname__ = f"{qualname}.{name}"
+            namespace[name] = method
+    namespace.update(__slots__=(), _fields=names)
+    for k, name in enumerate(names):
+        namespace[name] = property(operator.itemgetter(k), doc=f"Field {k}: {name}.")
+    made = type(cls.__name__, (tuple,), namespace)
+    made.__qualname__ = qualname
+    return made

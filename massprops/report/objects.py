@@ -136,7 +136,7 @@ def finite_or_null(obj):
     return cleaned
 
 
-_NUMBER_LIST = re.compile(r"\[\s*([-+0-9.eE,\s]+?)\s*\]")
+_NUMBER_LIST = r"\[\s*([-+0-9.eE,\s]+?)\s*\]"           # compiled on first use (re caches it)
 
 
 def to_json(value):
@@ -147,7 +147,7 @@ def to_json(value):
         finite_or_null(v) if isinstance(v, dict) else v for v in value]
     import json                         # lazily: the text report does not need it (start-up)
     text = json.dumps(value, indent=2, allow_nan=False)
-    return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
+    return re.sub(_NUMBER_LIST, lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
 
 
 def to_jsonl(objects):
