@@ -369,16 +369,76 @@ static int first_use_source(void *context, int64_t first, int64_t count, double 
     return 0;
 }
 
-/* The vertices the faces use, in order of first use, are welded as a stream of points (the
- * pipelined, multi-threaded weld of weld_source); a vertex used again takes the number its
- * first use got.  Numbers are those of welding every corner in order, one at a time. */
+/* Every corner welded in order, one point at a time (a vertex used again takes its number): for
+ * small meshes, whose table stays in cache. */
+static int weld_direct(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
+                       MeshArrays *out, Failure *failure)
+{
+    Welder w;
+    int64_t k, *renumber = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    out->m = m;
+    out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
+    if (!renumber || !out->faces || welder_init(&w, n) != 0) {
+        free(renumber);
+        free(out->faces);
+        out->faces = NULL;
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    for (k = 0; k < n; k++)
+        renumber[k] = -1;
+    for (k = 0; k < 3 * m; k++) {
+        int64_t given = faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
+        if (given < 0 || given >= n) {
+            fail(failure, ERR_INDEX, "re-export the mesh",
+                 "face %lld refers to vertex %lld, but there are %lld vertices", (long long)(k / 3),
+                 (long long)given, (long long)n);
+            break;
+        }
+        if (renumber[given] < 0 && (renumber[given] = weld_point64(&w, vertices + 3 * given)) < 0) {
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
+            break;
+        }
+        out->faces[k] = renumber[given];
+    }
+    out->ignored = 0;
+    for (k = 0; k < n && failure->kind == ERR_NONE; k++)
+        out->ignored += renumber[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
+                                             && isfinite(vertices[3 * k + 2]));
+    free(renumber);
+    if (failure->kind != ERR_NONE) {
+        welder_free(&w);
+        free(out->faces);
+        out->faces = NULL;
+        return -1;
+    }
+    out->n = w.count;
+    out->vertices = (double *)w.vertices.data;
+    w.vertices.data = NULL;
+    welder_free(&w);
+    if (!out->vertices && !(out->vertices = malloc(3 * sizeof(double)))) {
+        fail(failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    return 0;
+}
+
+#define STREAM_MIN 65536                /* vertices from which weld_indexed welds them as a stream */
+
+/* From STREAM_MIN vertices, the vertices the faces use, in order of first use, are welded as a
+ * stream of points (the pipelined, multi-threaded weld of weld_source); a vertex used again takes
+ * the number its first use got.  Either way the numbers are those of welding every corner in
+ * order, one at a time. */
 int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m, int threads,
                  MeshArrays *out, Failure *failure)
 {
     MeshArrays welded = {0};
     FirstUses uses;
-    int64_t k, count = 0, *rank = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
-    int64_t *order = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    int64_t k, count = 0, *rank, *order;
+    if (n < STREAM_MIN)
+        return weld_direct(vertices, n, faces, faces32, m, out, failure);
+    rank = malloc((size_t)n * sizeof(int64_t));
+    order = malloc((size_t)n * sizeof(int64_t));
     out->m = m;
     out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
     if (!rank || !order || !out->faces) {
