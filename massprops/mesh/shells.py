@@ -61,11 +61,12 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     """See :func:`solid_of` (which chooses ``check_self``)."""
     vertices, faces = mesh.vertices, mesh.faces
     if vertices.shape[0]:
-        # Shell volumes are compared in mesh units³: they must not underflow or overflow there.
+        # Shell volumes are compared in mesh units³: they must not underflow or overflow there.  (The box in
+        # one compiled pass: numpy's min and max along the rows of (n, 3) are ~10x slower on a small part.)
+        from ..core import _core
         from ..core.frame import check_box_range
-        with np.errstate(over="ignore", invalid="ignore"):     # an extent past the largest double is refused later
-            extents = np.ptp(vertices, axis=0).tolist()
-        check_box_range(extents)
+        low, high = _core.bounding_box(vertices)
+        check_box_range([hi - lo for lo, hi in zip(low, high)])    # inf past the largest double: refused later
     repeated = weights is not None and bool(np.any(weights != 1))
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})

@@ -46,16 +46,31 @@ def _make(cls, eq):
     post_init = getattr(cls, "__post_init__", None)
     qualname = cls.__qualname__
 
-    def __init__(self, *args, **kwargs):
+    def refuse(args, kwargs):
         if len(args) > len(names):
             raise TypeError(f"{qualname}() takes {len(names)} positional arguments but {len(args)} were given")
-        values = dict(zip(names, args))
-        for key, value in kwargs.items():
-            if key in values:
+        for key in kwargs:
+            if key in names[:len(args)]:
                 raise TypeError(f"{qualname}() got multiple values for argument {key!r}")
             if key not in known:
                 raise TypeError(f"{qualname}() got an unexpected keyword argument {key!r}")
-            values[key] = value
+
+    def __init__(self, *args, **kwargs):
+        # Checked with set operations (a record is made several times per file of a batch); the first
+        # wrong argument is named by refuse().
+        if len(args) > len(names):
+            refuse(args, kwargs)
+        if not kwargs:
+            values = dict(zip(names, args))
+        elif not args:
+            values = kwargs
+            if not known.issuperset(values):
+                refuse(args, kwargs)
+        else:
+            values = dict(zip(names, args))
+            if not (known.issuperset(kwargs) and values.keys().isdisjoint(kwargs)):
+                refuse(args, kwargs)
+            values.update(kwargs)
         if len(values) != len(names):
             for name, default, factory in defaults:
                 if name not in values:
