@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from massprops.core import read_obj
+from massprops.core import read_obj, weld_indexed
 from massprops.io import read
 from massprops.model.errors import MeshFormatError
 
@@ -172,3 +172,31 @@ def test_negative_corners_reach_back_across_parts(tmp_path):
     for threads in (1, 2):
         got_vertices, got_faces = _read_with(path, threads)
         assert np.array_equal(got_faces, expected_faces) and got_vertices.tobytes() == expected_vertices.tobytes()
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_large_indexed_mesh_is_welded_by_first_use(threads):
+    """330k vertices, all used (enough for the threads to share them out), many of them repeats of
+    others (and -0.0 of 0.0), and ten unused ones that are not finite."""
+    rng = np.random.default_rng(24)
+    distinct = rng.integers(-4, 5, size=(120_000, 3)).astype(float) * 0.25
+    distinct[:50, 0] = -0.0
+    vertices = distinct[rng.integers(0, len(distinct), size=329_998)]
+    vertices[-10:] = np.nan                               # unused, not finite: counted, left out
+    faces = np.concatenate([rng.permutation(329_988).reshape(-1, 3), rng.integers(0, 329_988, size=(20_000, 3))])
+    numbers, expected_vertices, expected_faces = {}, [], []
+    for face in faces.tolist():
+        row = []
+        for i in face:
+            key = tuple(vertices[i])
+            if key not in numbers:
+                numbers[key] = len(expected_vertices)
+                expected_vertices.append(tuple(x + 0.0 for x in key))
+            row.append(numbers[key])
+        expected_faces.append(row)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MASSPROPS_THREADS", str(threads))
+        welded, renumbered, ignored = weld_indexed(vertices, faces)
+    assert np.array_equal(renumbered, np.array(expected_faces))
+    assert welded.tobytes() == np.array(expected_vertices).tobytes()
+    assert ignored == 10

@@ -60,5 +60,5 @@ def weld_indexed(vertices, faces):
     IndexError
         A face refers to a vertex that does not exist.
     """
-    welded, renumbered, ignored = _core.weld_indexed(as_points(vertices), as_indices(faces))
+    welded, renumbered, ignored = _core.weld_indexed(as_points(vertices), as_indices(faces), thread_count())
     return np.asarray(welded), np.asarray(renumbered), ignored

@@ -239,8 +239,8 @@ static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
     Py_buffer vertices, faces;
     MeshArrays mesh = {0};
     Failure failure = {0};
-    int kind, status;
-    if (!PyArg_ParseTuple(args, "OO", &vertex_object, &face_object)
+    int kind, status, threads = 1;
+    if (!PyArg_ParseTuple(args, "OO|i", &vertex_object, &face_object, &threads)
             || !get_array(vertex_object, &vertices, ARRAY_F64, "vertices"))
         return NULL;
     if (!(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces"))) {
@@ -249,7 +249,7 @@ static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
     }
     Py_BEGIN_ALLOW_THREADS
     status = weld_indexed(vertices.buf, vertices.len / 24, faces.buf, kind == ARRAY_I32,
-                          faces.len / faces.itemsize / 3, 1, &mesh, &failure);
+                          faces.len / faces.itemsize / 3, threads, &mesh, &failure);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&faces);
@@ -591,7 +591,7 @@ static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
     {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"weld_corners", core_weld_corners, METH_VARARGS, "weld_corners(corners, threads) -> (vertices, faces, 0)"},
-    {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces) -> (vertices, faces, ignored non-finite unused vertices)"},
+    {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
     {"row_groups", core_row_groups, METH_VARARGS, "row_groups(rows, columns) -> (labels, first, same, opposite)"},
