@@ -274,6 +274,7 @@ typedef struct {
     int64_t *hubs;            /* per block of input faces: faces taken with a hub */
     double *lo, *hi;          /* per input face taken: its box (3 each) */
     uint8_t *certified;       /* per input face taken: its certified corners */
+    int force_level;          /* every face at this level (-1: each at its own) */
 } Build;
 
 /* Input faces of one block: each taken face's projection axis (-1: not taken or zero area), box
@@ -402,6 +403,8 @@ static void level_block(void *ctx, int64_t block)
             level++;
             size = ldexp(base, level);
         }
+        if (w->force_level >= 0)
+            level = w->force_level;
         g->level[t] = (int8_t)level;
         int64_t count = 1;
         for (int k = 0; k < 3; k++) {
@@ -437,13 +440,20 @@ static void key_block(void *ctx, int64_t block)
 int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
                const Stars *stars, int threads)
 {
+    return grid_build_at(g, V, F, shell, take, m, stars, threads, -1, 0);
+}
+
+int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                  const Stars *stars, int threads, int force_level, int64_t max_entries_per_face)
+{
     memset(g, 0, sizeof(*g));
     g->V = V;
     int64_t n_blocks = (m + BUILD_BLOCK - 1) / BUILD_BLOCK;
     Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0,
                malloc(sizeof(double[6]) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
                malloc(sizeof(int64_t) * (n_blocks + 1)),
-               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1)};
+               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1),
+               force_level};
     int status = -1;
     if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)
         goto done;
@@ -497,6 +507,10 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
         int64_t c = w.count[k];
         w.count[k] = n_entries;
         n_entries += c;
+    }
+    if (max_entries_per_face > 0 && n_entries > max_entries_per_face * n) {
+        status = 1;
+        goto done;
     }
     for (int64_t t = 0; t < n; t++)
         g->used[g->level[t]] = 1;

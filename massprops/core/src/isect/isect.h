@@ -26,7 +26,7 @@
 
 /* ---- stars.c: which faces are known to meet only along what they share ---------------- */
 
-enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2 };
+enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2, STAR_TRIED = 4 };
 
 typedef struct {
     const double *V;
@@ -37,6 +37,7 @@ typedef struct {
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
+    int64_t max_degree;
 } Stars;
 
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
@@ -44,6 +45,13 @@ typedef struct {
  * 0 <= F < n and m < 2**30. */
 int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
                 int64_t n_shells, const uint8_t *wanted, int threads);
+/* The same; with `lazy`, the shells' certificates and the cycles only: no vertex's star is
+ * certified until stars_certify_corners asks for it. */
+int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
+                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy);
+/* Star certificates (as stars_build gives them) for the corners of the faces with take[t] set;
+ * 0, or -1 when memory ran out (then fewer are certified).  Does not depend on the thread count. */
+int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads);
 void stars_free(Stars *s);
 
 static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v + 1] - s->begin[v]; }
@@ -83,6 +91,11 @@ typedef struct {
  * depend on the thread count. */
 int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
                const Stars *stars, int threads);
+/* The same with every face at `force_level` (>= 0; cells of side base * 2**force_level), or at
+ * its own level (-1); 1 (nothing built) when there would be more than max_entries_per_face
+ * entries a face (0: no limit). */
+int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                  const Stars *stars, int threads, int force_level, int64_t max_entries_per_face);
 void grid_free(Grid *g);
 
 static inline int64_t grid_id(const Grid *g, int64_t t) { return g->id ? g->id[t] : t; }
@@ -117,6 +130,15 @@ int64_t grid_find(const Grid *g, int level, uint64_t key);
 
 /* Sort (key, value) pairs by key, stably; tk, tv: scratch of n entries.  0, or -1 out of memory. */
 int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64_t n);
+
+/* ---- patches.c: cells of a coarse grid certified embedded --------------------------------- */
+
+/* Set bad[t] (original face index) for each face taken that lies in some coarse cell whose
+ * faces could not be certified embedded (they must be searched); faces of certified cells are
+ * left 0.  *certified: entries in certified cells.  0; 1 when nothing was done (too many
+ * entries: every face must be searched); -1 out of memory. */
+int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                 const Stars *stars, int threads, uint8_t *bad, int64_t *certified);
 
 /* ---- search.c: the pair search ------------------------------------------------------- */
 
