@@ -64,11 +64,20 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef PATCH_DEBUG
+#include <stdio.h>
+static long dbg[8];
+#define DBG(i) __atomic_fetch_add(&dbg[i], 1, __ATOMIC_RELAXED)
+#define DBGIF(c, i) do { if (c) DBG(i); } while (0)
+#else
+#define DBG(i)
+#define DBGIF(c, i)
+#endif
 
 /* The coarse cells' level (the search's cells are level 0 at its base size), the finest level
  * tried, and the most entries a face may have in the coarse grid (beyond: no patches). */
 #define PATCH_LEVEL 3
-#define PATCH_FINEST 1
+#define PATCH_FINEST 0
 #define PATCH_ENTRY_LIMIT 3
 /* Entries per block of the parallel loop. */
 #define PATCH_BLOCK 16384
@@ -79,14 +88,16 @@ typedef struct {
 } Segment;
 
 typedef struct {
-    uint32_t *faces;          /* face table: original index + 1, 0 empty */
-    int64_t face_mask;
-    int64_t *vertex;          /* vertex table: index + 1, 0 empty */
-    int64_t *next;            /* per vertex slot: the boundary edge's far end, or -1 (interior) */
+    uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
+    uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
+    int64_t *vertex;          /* boundary vertices: index + 1, 0 empty (a hash table) */
+    int64_t *next;            /* per slot: the boundary edge's far end */
     int64_t vertex_mask;
+    int64_t *boundary;        /* the boundary vertices in the table */
     int64_t *loop;            /* the boundary loop's vertices */
     Segment *segments, *sorted;
     uint32_t *list[PATCH_LEVEL];   /* faces of a child cell, per depth */
+    uint8_t *octants[PATCH_LEVEL]; /* per face of a cell: the children it is in, per depth */
     int64_t cap;              /* faces the arrays hold */
     int failed;
 } Scratch;
@@ -110,6 +121,13 @@ static inline uint64_t mix(uint64_t h)
     return h;
 }
 
+static void scratch_release(Scratch *sc)
+{
+    free(sc->vertex), free(sc->next), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
+    for (int d = 0; d < PATCH_LEVEL; d++)
+        free(sc->list[d]), free(sc->octants[d]);
+}
+
 static int patch_reserve(Scratch *sc, int64_t k)
 {
     if (k <= sc->cap)
@@ -117,85 +135,74 @@ static int patch_reserve(Scratch *sc, int64_t k)
     int64_t cap = sc->cap ? sc->cap : 64;
     while (cap < k)
         cap *= 2;
-    int64_t faces = 1, vertices = 1;
-    while (faces < 2 * cap)
-        faces *= 2;
+    int64_t vertices = 1;
     while (vertices < 2 * 3 * cap)
         vertices *= 2;
-    free(sc->faces), free(sc->vertex), free(sc->next), free(sc->loop), free(sc->segments), free(sc->sorted);
-    for (int d = 0; d < PATCH_LEVEL; d++)
-        free(sc->list[d]);
-    memset(sc, 0, sizeof(*sc));
-    sc->faces = calloc(faces, sizeof(uint32_t));
+    scratch_release(sc);
+    sc->cap = 0;
     sc->vertex = calloc(vertices, sizeof(int64_t));
     sc->next = malloc(sizeof(int64_t) * vertices);
+    sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->faces && sc->vertex && sc->next && sc->loop && sc->segments && sc->sorted;
-    for (int d = 0; d < PATCH_LEVEL; d++)
+    int ok = sc->vertex && sc->next && sc->boundary && sc->loop && sc->segments && sc->sorted;
+    for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
+        ok = (sc->octants[d] = malloc(cap)) && ok;
+    }
     if (!ok) {
+        scratch_release(sc);
+        memset(sc->list, 0, sizeof(sc->list));
+        memset(sc->octants, 0, sizeof(sc->octants));
+        sc->vertex = sc->next = sc->boundary = sc->loop = NULL;
+        sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
     }
-    sc->face_mask = faces - 1;
     sc->vertex_mask = vertices - 1;
     sc->cap = cap;
     return 0;
 }
 
-static void face_insert(Scratch *sc, uint32_t f)
-{
-    uint64_t i = mix(f) & sc->face_mask;
-    while (sc->faces[i] && sc->faces[i] != f + 1)
-        i = (i + 1) & sc->face_mask;
-    sc->faces[i] = f + 1;
-}
+static inline int bit(const uint64_t *bits, int64_t i) { return (int)(bits[i >> 6] >> (i & 63) & 1); }
+static inline void set_bit(uint64_t *bits, int64_t i) { bits[i >> 6] |= 1ULL << (i & 63); }
+static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL << (i & 63)); }
 
-static inline int face_in(const Scratch *sc, uint32_t f)
-{
-    for (uint64_t i = mix(f) & sc->face_mask;; i = (i + 1) & sc->face_mask) {
-        if (sc->faces[i] == f + 1)
-            return 1;
-        if (!sc->faces[i])
-            return 0;
-    }
-}
-
-/* The slot of vertex v; *fresh set when it was not there (then it is added). */
-static inline int64_t vertex_slot(Scratch *sc, int64_t v, int *fresh)
+/* Add boundary vertex v, its boundary edge going to `to` (v is not there yet). */
+static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
 {
     uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
-    while (sc->vertex[i] && sc->vertex[i] != v + 1)
+    while (sc->vertex[i])
         i = (i + 1) & sc->vertex_mask;
-    *fresh = !sc->vertex[i];
     sc->vertex[i] = v + 1;
-    return (int64_t)i;
+    sc->next[i] = to;
+    sc->boundary[count] = v;
 }
 
-static inline int64_t vertex_find(const Scratch *sc, int64_t v)
+/* The far end of boundary vertex v's boundary edge, or -1 when v is not a boundary vertex. */
+static inline int64_t boundary_next(const Scratch *sc, int64_t v)
 {
     for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
         if (sc->vertex[i] == v + 1)
-            return (int64_t)i;
+            return sc->next[i];
         if (!sc->vertex[i])
             return -1;
     }
 }
 
-/* Empty the tables of the patch list[0..k) filled. */
-static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k)
+/* Empty what the patch list[0..k), with `boundary` boundary vertices, filled. */
+static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t boundary)
 {
     for (int64_t i = 0; i < k; i++) {
-        uint32_t f = (uint32_t)grid_id(g, list[i]);
-        for (uint64_t s = mix(f) & sc->face_mask; sc->faces[s]; s = (s + 1) & sc->face_mask)
-            sc->faces[s] = 0;
-        for (int c = 0; c < 3; c++) {
-            int64_t v = g->corner[3 * (int64_t)list[i] + c];
-            for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s]; s = (s + 1) & sc->vertex_mask)
-                sc->vertex[s] = 0;
-        }
+        clear_bit(sc->face_bits, grid_id(g, list[i]));
+        for (int c = 0; c < 3; c++)
+            clear_bit(sc->vertex_bits, g->corner[3 * (int64_t)list[i] + c]);
+    }
+    for (int64_t i = 0; i < boundary; i++) {
+        int64_t v = sc->boundary[i];
+        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s]; s = (s + 1) & sc->vertex_mask)
+            sc->vertex[s] = 0;
     }
 }
 
@@ -293,12 +300,14 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     for (int64_t i = 0; i < k; i++) {
         const int64_t *c = g->corner + 3 * (int64_t)list[i];
         int o = porient(axis, V + 3 * c[0], V + 3 * c[1], V + 3 * c[2]);
-        if (o == 0 || (sign != 0 && o != sign))
+        if (o == 0 || (sign != 0 && o != sign)) {
+            DBG(0);
             return 0;
+        }
         sign = o;
     }
     for (int64_t i = 0; i < k; i++)
-        face_insert(sc, (uint32_t)grid_id(g, list[i]));
+        set_bit(sc->face_bits, grid_id(g, list[i]));
     /* (b), counting V and B */
     int ok = 1, y = axis == 0 ? 1 : 0;
     int64_t n_vertices = 0, n_boundary = 0, start = -1;
@@ -306,10 +315,9 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     for (int64_t i = 0; i < k && ok; i++)
         for (int c = 0; c < 3 && ok; c++) {
             int64_t v = g->corner[3 * (int64_t)list[i] + c];
-            int fresh;
-            int64_t slot = vertex_slot(sc, v, &fresh);
-            if (!fresh)
+            if (bit(sc->vertex_bits, v))
                 continue;
+            set_bit(sc->vertex_bits, v);
             n_vertices++;
             if (!(st->flag[v] & STAR_CYCLE)) {
                 ok = 0;
@@ -317,14 +325,14 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             }
             int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
             P pv = V + 3 * v;
-            int last_in = face_in(sc, st->ring[b + degree - 1] >> 2), first_above = 0, last_above = 0;
+            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2), first_above = 0, last_above = 0;
             int64_t upward = 0;
             for (int64_t j = 0; j < degree; j++) {
                 uint32_t r = st->ring[b + j];
                 int64_t face = r >> 2;
                 int corner = r & 3;
                 int64_t x = F[3 * face + (corner == 2 ? 0 : corner + 1)];
-                int in = face_in(sc, (uint32_t)face);
+                int in = bit(sc->face_bits, face);
                 if (in && !last_in) {
                     runs++;
                     edge = x;
@@ -339,32 +347,34 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
                 last_above = above;
             }
             upward += !last_above && first_above;
-            if (outside == 0) {
-                sc->next[slot] = -1;
+            if (outside == 0)
                 ok = upward == 1;
-            } else if (runs == 1) {
-                sc->next[slot] = edge;
-                n_boundary++;
+            else if (runs == 1) {
+                boundary_add(sc, v, edge, n_boundary++);
                 start = v;
-            } else {
+            } else
                 ok = 0;
-            }
         }
+    DBGIF(!ok, 1);
     /* (c) */
     if (ok)
         ok = n_boundary >= 3 && 2 * n_vertices - k - n_boundary == 2;
+    DBGIF(!ok, 2);
     int64_t at = start;
     for (int64_t i = 0; ok && i < n_boundary; i++) {
         sc->loop[i] = at;
-        int64_t slot = vertex_find(sc, at);
-        at = slot < 0 ? -1 : sc->next[slot];
+        at = boundary_next(sc, at);
         ok = at >= 0 && (at != start || i == n_boundary - 1);
     }
     ok = ok && at == start;
+    DBGIF(!ok, 3);
     /* (d) */
-    if (ok)
+    if (ok) {
         ok = loop_simple(V, sc->loop, n_boundary, axis, sc);
-    clear(sc, g, list, k);
+        DBGIF(!ok, 4);
+        DBGIF(ok, 5);
+    }
+    clear(sc, g, list, k, n_boundary);
     return ok;
 }
 
@@ -392,17 +402,26 @@ static int64_t certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list
     const Grid *g = pa->g;
     int child = level - 1;
     uint32_t *sub = sc->list[child];
+    uint8_t *octants = sc->octants[child];
     int64_t done = 0;
+    for (int64_t i = 0; i < k; i++) {
+        int64_t c0[3], c1[3];
+        grid_face_cells(g, list[i], child, c0, c1);
+        unsigned along[3];
+        for (int a = 0; a < 3; a++)
+            along[a] = (c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a]) | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a]) << 1;
+        uint8_t in = 0;
+        for (int octant = 0; octant < 8; octant++)
+            in |= (uint8_t)((along[0] >> (octant & 1) & along[1] >> (octant >> 1 & 1) & along[2] >> (octant >> 2 & 1) & 1)
+                            << octant);
+        octants[i] = in;
+    }
     for (int octant = 0; octant < 8; octant++) {
         int64_t at[3] = {2 * cell[0] + (octant & 1), 2 * cell[1] + (octant >> 1 & 1), 2 * cell[2] + (octant >> 2 & 1)};
         int64_t n = 0;
-        for (int64_t i = 0; i < k; i++) {
-            int64_t c0[3], c1[3];
-            grid_face_cells(g, list[i], child, c0, c1);
-            if (c0[0] <= at[0] && at[0] <= c1[0] && c0[1] <= at[1] && at[1] <= c1[1] && c0[2] <= at[2]
-                && at[2] <= c1[2])
+        for (int64_t i = 0; i < k; i++)
+            if (octants[i] >> octant & 1)
                 sub[n++] = list[i];
-        }
         if (n)
             done += certify_cell(pa, sc, sub, n, child, at);
     }
@@ -449,7 +468,13 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     pa.certified = calloc(want + 1, sizeof(int64_t));
     pa.scratch = calloc(workers, sizeof(Scratch));
     status = -1;
-    if (pa.cut && pa.certified && pa.scratch) {
+    int ready = pa.scratch != NULL;
+    for (int k = 0; ready && k < workers; k++) {
+        pa.scratch[k].face_bits = calloc((stars->m >> 6) + 1, sizeof(uint64_t));
+        pa.scratch[k].vertex_bits = calloc((stars->n >> 6) + 1, sizeof(uint64_t));
+        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_bits;
+    }
+    if (pa.cut && pa.certified && ready) {
         int64_t n_cuts = 0, at = 0;
         pa.cut[n_cuts++] = 0;
         while (at < g.n_entries && n_cuts <= want) {
@@ -468,12 +493,15 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
             *certified += pa.certified[b];
     }
     for (int k = 0; pa.scratch && k < workers; k++) {
-        Scratch *sc = &pa.scratch[k];
-        free(sc->faces), free(sc->vertex), free(sc->next), free(sc->loop), free(sc->segments), free(sc->sorted);
-        for (int d = 0; d < PATCH_LEVEL; d++)
-            free(sc->list[d]);
+        scratch_release(&pa.scratch[k]);
+        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
     }
     free(pa.cut), free(pa.certified), free(pa.scratch);
+#ifdef PATCH_DEBUG
+    fprintf(stderr, "patches: sign %ld vertex %ld euler %ld loop %ld simple %ld ok %ld; certified %ld of %ld entries\n",
+            dbg[0], dbg[1], dbg[2], dbg[3], dbg[4], dbg[5], (long)*certified, (long)g.n_entries);
+    memset(dbg, 0, sizeof(dbg));
+#endif
     grid_free(&g);
     return status;
 }
