@@ -20,6 +20,21 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+void *isect_alloc(size_t bytes, int zeroed)
+{
+    void *data = zeroed ? calloc(bytes ? bytes : 1, 1) : malloc(bytes ? bytes : 1);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    const uintptr_t huge = (uintptr_t)1 << 21;
+    uintptr_t start = ((uintptr_t)data + huge - 1) & ~(huge - 1), end = ((uintptr_t)data + bytes) & ~(huge - 1);
+    if (data && bytes >= 4 * huge && end > start)
+        madvise((void *)start, end - start, MADV_HUGEPAGE);
+#endif
+    return data;
+}
 
 /* A certified vertex with at least this many faces groups them (below, pairs are skipped one
  * by one, which costs less than the grouping). */
@@ -354,17 +369,17 @@ static int fill_faces(Grid *g, Build *w, int threads)
         w->certified = NULL;
     } else {
         g->id = malloc(sizeof(uint32_t) * n);
-        g->corner = g->own_corner = malloc(sizeof(int64_t) * 3 * n);
-        g->shell = g->own_shell = malloc(sizeof(int64_t) * n);
+        g->corner = g->own_corner = isect_alloc(sizeof(int64_t) * 3 * n, 0);
+        g->shell = g->own_shell = isect_alloc(sizeof(int64_t) * n, 0);
         g->axis = g->own_axis = malloc(n);
-        g->lo = malloc(sizeof(double) * 3 * n);
-        g->hi = malloc(sizeof(double) * 3 * n);
+        g->lo = isect_alloc(sizeof(double) * 3 * n, 0);
+        g->hi = isect_alloc(sizeof(double) * 3 * n, 0);
         g->certified = malloc(n);
         if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || !g->lo || !g->hi || !g->certified)
             return -1;
         parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);
     }
-    g->low_cell = malloc(sizeof(int32_t) * 3 * n);
+    g->low_cell = isect_alloc(sizeof(int32_t) * 3 * n, 0);
     g->level = malloc(n);
     if (!g->low_cell || !g->level)
         return -1;
@@ -452,7 +467,7 @@ int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *she
     Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0,
                malloc(sizeof(double[6]) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
                malloc(sizeof(int64_t) * (n_blocks + 1)),
-               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1),
+               isect_alloc(sizeof(double) * 3 * m, 0), isect_alloc(sizeof(double) * 3 * m, 0), malloc(m ? m : 1),
                force_level};
     int status = -1;
     if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)
@@ -521,10 +536,10 @@ int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *she
             used_levels[g->n_used++] = level;
     memcpy(g->used, used_levels, sizeof(int) * g->n_used);
     g->n_entries = n_entries;
-    g->key = malloc(sizeof(uint64_t) * n_entries);
-    g->face = malloc(sizeof(uint32_t) * n_entries);
-    uint64_t *tk = malloc(sizeof(uint64_t) * n_entries);
-    uint32_t *tv = malloc(sizeof(uint32_t) * n_entries);
+    g->key = isect_alloc(sizeof(uint64_t) * n_entries, 0);
+    g->face = isect_alloc(sizeof(uint32_t) * n_entries, 0);
+    uint64_t *tk = isect_alloc(sizeof(uint64_t) * n_entries, 0);
+    uint32_t *tv = isect_alloc(sizeof(uint32_t) * n_entries, 0);
     if (!g->key || !g->face || !tk || !tv) {
         free(tk), free(tv);
         goto done;

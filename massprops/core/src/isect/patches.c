@@ -66,6 +66,7 @@
 #include <string.h>
 #ifdef PATCH_DEBUG
 #include <stdio.h>
+#include <time.h>
 static long dbg[8];
 #define DBG(i) __atomic_fetch_add(&dbg[i], 1, __ATOMIC_RELAXED)
 #define DBGIF(c, i) do { if (c) DBG(i); } while (0)
@@ -74,7 +75,7 @@ static long dbg[8];
 #define DBGIF(c, i)
 #endif
 
-/* The coarse cells' level (the search's cells are level 0 at its base size), the finest level
+/* The coarsest cells' level (the search's cells are level 0 at its base size), the finest level
  * tried, and the most entries a face may have in the coarse grid (beyond: no patches). */
 #define PATCH_LEVEL 3
 #define PATCH_FINEST 0
@@ -270,6 +271,45 @@ static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis
     return 1;
 }
 
+static inline void face_normal(const Grid *g, uint32_t t, double *n)
+{
+    const int64_t *c = g->corner + 3 * (int64_t)t;
+    P a = g->V + 3 * c[0], b = g->V + 3 * c[1], e = g->V + 3 * c[2];
+    double x[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, y[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
+    n[0] = x[1] * y[2] - x[2] * y[1];
+    n[1] = x[2] * y[0] - x[0] * y[2];
+    n[2] = x[0] * y[1] - x[1] * y[0];
+}
+
+static inline int largest(const double *n)
+{
+    double f[3] = {fabs(n[0]), fabs(n[1]), fabs(n[2])};
+    return f[0] >= f[1] ? (f[0] >= f[2] ? 0 : 2) : (f[1] >= f[2] ? 1 : 2);
+}
+
+/* (a) along `axis` for faces of one shell: the common strict sign of their projections' orient2d,
+ * or 0. */
+static int one_sign(const Grid *g, const uint32_t *list, int64_t k, int axis, int64_t shell)
+{
+    int sign = 0;
+    /* every 16th face first: a cell holding two sheets usually fails there, without the full pass */
+    for (int64_t i = 0; i < k; i += 16) {
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
+        if (o == 0 || (sign != 0 && o != sign))
+            return 0;
+        sign = o;
+    }
+    for (int64_t i = 0; i < k; i++) {
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
+        if (o == 0 || (sign != 0 && o != sign) || g->shell[list[i]] != shell)
+            return 0;
+        sign = o;
+    }
+    return sign;
+}
+
 /* Whether the faces list[0..k) (indices into the grid's faces) are a certified patch. */
 static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k)
 {
@@ -279,32 +319,30 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     if (k <= 1)
         return 1;
     int64_t shell = g->shell[list[0]];
-    for (int64_t i = 1; i < k; i++)
-        if (g->shell[list[i]] != shell)
-            return 0;
-    if (pa->embedded && pa->embedded[shell])
+    if (pa->embedded && pa->embedded[shell]) {
+        for (int64_t i = 1; i < k; i++)
+            if (g->shell[list[i]] != shell)
+                return 0;
         return 1;
-    /* (a): the axis of the largest component of the summed normals */
-    double sum[3] = {0.0, 0.0, 0.0};
-    for (int64_t i = 0; i < k; i++) {
-        const int64_t *c = g->corner + 3 * (int64_t)list[i];
-        P a = V + 3 * c[0], b = V + 3 * c[1], e = V + 3 * c[2];
-        double x[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, y[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
-        sum[0] += x[1] * y[2] - x[2] * y[1];
-        sum[1] += x[2] * y[0] - x[0] * y[2];
-        sum[2] += x[0] * y[1] - x[1] * y[0];
     }
-    double f[3] = {fabs(sum[0]), fabs(sum[1]), fabs(sum[2])};
-    int axis = f[0] >= f[1] ? (f[0] >= f[2] ? 0 : 2) : (f[1] >= f[2] ? 1 : 2);
-    int sign = 0;
-    for (int64_t i = 0; i < k; i++) {
-        const int64_t *c = g->corner + 3 * (int64_t)list[i];
-        int o = porient(axis, V + 3 * c[0], V + 3 * c[1], V + 3 * c[2]);
-        if (o == 0 || (sign != 0 && o != sign)) {
-            DBG(0);
-            return 0;
+    /* (a): along the largest component of the first face's normal, else of the summed normals */
+    double n[3];
+    face_normal(g, list[0], n);
+    int axis = largest(n), sign = one_sign(g, list, k, axis, shell);
+    if (sign == 0) {
+        double sum[3] = {0.0, 0.0, 0.0};
+        for (int64_t i = 0; i < k; i++) {
+            face_normal(g, list[i], n);
+            for (int a = 0; a < 3; a++)
+                sum[a] += n[a];
         }
-        sign = o;
+        int other = largest(sum);
+        sign = other == axis ? 0 : one_sign(g, list, k, other, shell);
+        axis = other;
+    }
+    if (sign == 0) {
+        DBG(0);
+        return 0;
     }
     for (int64_t i = 0; i < k; i++)
         set_bit(sc->face_bits, grid_id(g, list[i]));
@@ -450,8 +488,16 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
                  const Stars *stars, int threads, uint8_t *bad, int64_t *certified)
 {
     *certified = 0;
+    /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
+     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
+    int64_t taken = 0;
+    for (int64_t t = 0; t < m; t++)
+        taken += take[t] != 0;
+    int top = 1;
+    while (top < PATCH_LEVEL && ((int64_t)1024 << (2 * (top + 1))) <= taken)
+        top++;
     Grid g;
-    int status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, PATCH_LEVEL, PATCH_ENTRY_LIMIT);
+    int status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
     if (status != 0 || g.n == 0) {
         grid_free(&g);
         return status < 0 ? -1 : 1;
@@ -462,6 +508,9 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     pa.stars = stars;
     pa.embedded = stars->shell_embedded;
     pa.bad = bad;
+#ifdef PATCH_DEBUG
+    struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts); double t0 = ts.tv_sec + 1e-9 * ts.tv_nsec;
+#endif
     int64_t want = g.n_entries / PATCH_BLOCK + 1;
     int workers = threads < 1 ? 1 : threads;
     pa.cut = malloc(sizeof(int64_t) * (want + 2));
@@ -498,6 +547,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     }
     free(pa.cut), free(pa.certified), free(pa.scratch);
 #ifdef PATCH_DEBUG
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    fprintf(stderr, "certify %.2f ms\n", (ts.tv_sec + 1e-9 * ts.tv_nsec - t0) * 1e3);
     fprintf(stderr, "patches: sign %ld vertex %ld euler %ld loop %ld simple %ld ok %ld; certified %ld of %ld entries\n",
             dbg[0], dbg[1], dbg[2], dbg[3], dbg[4], dbg[5], (long)*certified, (long)g.n_entries);
     memset(dbg, 0, sizeof(dbg));

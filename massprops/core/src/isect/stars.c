@@ -97,8 +97,8 @@ enum { SIGN_NONE = 0, SIGN_MIXED = 2 };
 static int build_incidences(Stars *s)
 {
     int64_t n = s->n, m = s->m;
-    s->begin = calloc(n + 2, sizeof(int64_t));
-    s->ring = malloc(sizeof(uint32_t) * 3 * (m ? m : 1));
+    s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
+    s->ring = isect_alloc(sizeof(uint32_t) * 3 * m, 0);
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
