@@ -75,8 +75,9 @@ typedef struct {
     const int8_t *axis;
     int64_t *own_corner, *own_shell;     /* what corner and shell point to when copied */
     int8_t *own_axis;
-    double *lo, *hi;          /* 3 per face: the face's box */
+    double *lo, *hi;          /* 3 per face: the face's box (NULL in a coarse grid: high_cell instead) */
     int32_t *low_cell;        /* 3 per face: level-0 cell of lo */
+    int32_t *high_cell;       /* 3 per face: level-0 cell of hi (a coarse grid only, else NULL) */
     int8_t *level;
     uint8_t *certified;       /* bit k: the star of corner k is certified embedded */
     uint32_t *group_begin, *group_end;   /* faces sharing a hub vertex: consecutive, [begin, end)
@@ -123,7 +124,7 @@ static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t 
 {
     for (int k = 0; k < 3; k++) {
         c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
-        c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
+        c1[k] = (g->high_cell ? (int64_t)g->high_cell[3 * t + k] : grid_cell0(g, k, g->hi[3 * t + k])) >> level;
     }
 }
 
