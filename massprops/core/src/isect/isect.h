@@ -3,11 +3,13 @@
  * The caller passes coordinates scaled to about unit size whose non-zero
  * magnitudes are at least 2**-200, so no product of coordinate differences
  * under- or overflows and the predicates (predicates.h) are exact.  Every
- * "these faces do not meet" comes from one of three places, each proved in
+ * "these faces do not meet" comes from one of four places, each proved in
  * its file:
  *
  *   stars.c   certificates that a vertex's star, or a whole shell, is
  *             embedded (its faces meet only along what they share);
+ *   patches.c certificates that the faces of a cell of a coarse grid are one
+ *             disk that projects one-to-one along an axis (then embedded);
  *   search.c  a float plane-separation filter with a certified bound, then
  *             the exact closed-set tests of predicates.h;
  *   grid.c    the broad phase: faces whose boxes are disjoint never meet.

@@ -64,16 +64,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#ifdef PATCH_DEBUG
-#include <stdio.h>
-#include <time.h>
-static long dbg[8];
-#define DBG(i) __atomic_fetch_add(&dbg[i], 1, __ATOMIC_RELAXED)
-#define DBGIF(c, i) do { if (c) DBG(i); } while (0)
-#else
-#define DBG(i)
-#define DBGIF(c, i)
-#endif
 
 /* The coarsest cells' level (the search's cells are level 0 at its base size), the finest level
  * tried, and the most entries a face may have in the coarse grid (beyond: no patches). */
@@ -340,10 +330,8 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         sign = other == axis ? 0 : one_sign(g, list, k, other, shell);
         axis = other;
     }
-    if (sign == 0) {
-        DBG(0);
+    if (sign == 0)
         return 0;
-    }
     for (int64_t i = 0; i < k; i++)
         set_bit(sc->face_bits, grid_id(g, list[i]));
     /* (b), counting V and B */
@@ -393,11 +381,9 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             } else
                 ok = 0;
         }
-    DBGIF(!ok, 1);
     /* (c) */
     if (ok)
         ok = n_boundary >= 3 && 2 * n_vertices - k - n_boundary == 2;
-    DBGIF(!ok, 2);
     int64_t at = start;
     for (int64_t i = 0; ok && i < n_boundary; i++) {
         sc->loop[i] = at;
@@ -405,13 +391,9 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         ok = at >= 0 && (at != start || i == n_boundary - 1);
     }
     ok = ok && at == start;
-    DBGIF(!ok, 3);
     /* (d) */
-    if (ok) {
+    if (ok)
         ok = loop_simple(V, sc->loop, n_boundary, axis, sc);
-        DBGIF(!ok, 4);
-        DBGIF(ok, 5);
-    }
     clear(sc, g, list, k, n_boundary);
     return ok;
 }
@@ -508,9 +490,6 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     pa.stars = stars;
     pa.embedded = stars->shell_embedded;
     pa.bad = bad;
-#ifdef PATCH_DEBUG
-    struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts); double t0 = ts.tv_sec + 1e-9 * ts.tv_nsec;
-#endif
     int64_t want = g.n_entries / PATCH_BLOCK + 1;
     int workers = threads < 1 ? 1 : threads;
     pa.cut = malloc(sizeof(int64_t) * (want + 2));
@@ -546,13 +525,6 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
         free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
     }
     free(pa.cut), free(pa.certified), free(pa.scratch);
-#ifdef PATCH_DEBUG
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    fprintf(stderr, "certify %.2f ms\n", (ts.tv_sec + 1e-9 * ts.tv_nsec - t0) * 1e3);
-    fprintf(stderr, "patches: sign %ld vertex %ld euler %ld loop %ld simple %ld ok %ld; certified %ld of %ld entries\n",
-            dbg[0], dbg[1], dbg[2], dbg[3], dbg[4], dbg[5], (long)*certified, (long)g.n_entries);
-    memset(dbg, 0, sizeof(dbg));
-#endif
     grid_free(&g);
     return status;
 }

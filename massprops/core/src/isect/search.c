@@ -1,6 +1,9 @@
 /* The pair search: which faces meet, within a shell and between shells.
  *
- * Candidates come from the grid (grid.c): pairs of faces in one cell (within
+ * When looking within shells, faces that lie only in cells of a coarse grid
+ * certified as embedded patches (patches.c) are left out first; the vertex
+ * stars of the faces left are certified then (stars.c).  Candidates come from
+ * the grid (grid.c) of the faces left: pairs of faces in one cell (within
  * a level, the pairs a sweep along one axis finds overlapping there; a cell
  * holding a hub group lists every pair but the group's).  Each pair is
  * decided once, in the cell of max(their boxes' lower corners) at the coarser
@@ -22,14 +25,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#ifdef PATCH_DEBUG
-#include <stdio.h>
-#include <time.h>
-static double now(void) { struct timespec t; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t); return t.tv_sec + 1e-9 * t.tv_nsec; }
-#define TICK(name) do { double t_ = now(); fprintf(stderr, "%s %.2f ms\n", name, (t_ - t0) * 1e3); t0 = t_; } while (0)
-#else
-#define TICK(name)
-#endif
 
 /* Entries per block of the search within levels, faces per block across levels. */
 #define ENTRY_BLOCK 16384
@@ -740,9 +735,6 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
 {
     memset(out, 0, sizeof(*out));
     memset(stars, 0, sizeof(*stars));
-#ifdef PATCH_DEBUG
-    double t0 = now();
-#endif
     int have_stars = 0;
     uint8_t *take = malloc(m ? m : 1);
     if (!take)
@@ -759,7 +751,6 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
         free(wanted);
     }
-    TICK("stars");
     /* Faces whose every pair is certified take no part unless other shells may meet them. */
     int64_t taken = 0;
     for (int64_t t = 0; t < m; t++) {
@@ -781,11 +772,9 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         }
         free(bad);
     }
-    TICK("patches");
     /* the stars of the faces left to search, which the search skips pairs by */
     if (have_stars && taken)
         stars_certify_corners(stars, shell, take, threads);
-    TICK("corners");
     Grid g;
     memset(&g, 0, sizeof(g));
     int status = taken ? grid_build(&g, V, F, shell, take, m, have_stars ? stars : NULL, threads) : 0;
@@ -808,7 +797,6 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
             status = -1;
     }
     grid_free(&g);
-    TICK("search");
     if (status < 0)
         found_free(out);
     return status;
