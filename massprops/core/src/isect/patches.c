@@ -70,6 +70,9 @@
 #define PATCH_LEVEL 3
 #define PATCH_FINEST 0
 #define PATCH_ENTRY_LIMIT 3
+/* A vertex of more faces fails its cells (each cell holding it would walk all its faces: a fan's hub
+ * is left to the search, which skips a hub's pairs as a block). */
+#define PATCH_MAX_DEGREE 64
 /* Entries per block of the parallel loop. */
 #define PATCH_BLOCK 16384
 
@@ -345,11 +348,11 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
                 continue;
             set_bit(sc->vertex_bits, v);
             n_vertices++;
-            if (!(st->flag[v] & STAR_CYCLE)) {
+            int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
+            if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
                 ok = 0;
                 break;
             }
-            int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
             P pv = V + 3 * v;
             int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2), first_above = 0, last_above = 0;
             int64_t upward = 0;
