@@ -440,14 +440,14 @@ static void level_block(void *ctx, int64_t block)
     for (int64_t t = s0; t < s1; t++) {
         double lo[3], hi[3];
         face_box(g, t, lo, hi);
-        double e = face_extent(lo, hi), size = base;
-        int level = 0;
-        while (level < MAX_LEVEL && e > size) {
-            level++;
-            size = ldexp(base, level);
+        int level = w->force_level >= 0 ? w->force_level : 0;
+        if (w->force_level < 0) {
+            double e = face_extent(lo, hi), size = base;
+            while (level < MAX_LEVEL && e > size) {
+                level++;
+                size = ldexp(base, level);
+            }
         }
-        if (w->force_level >= 0)
-            level = w->force_level;
         g->level[t] = (int8_t)level;
         int64_t count = 1;
         for (int k = 0; k < 3; k++) {
