@@ -142,10 +142,10 @@ int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64
 
 /* Set bad[t] (original face index) for each face taken that lies in some coarse cell whose
  * faces could not be certified embedded (they must be searched); faces of certified cells are
- * left 0.  *certified: entries in certified cells.  0; 1 when nothing was done (too many
- * entries: every face must be searched); -1 out of memory. */
+ * left 0.  0; 1 when nothing was done (too many entries: every face must be searched); -1 out
+ * of memory (then too, every face must be searched). */
 int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
-                 const Stars *stars, int threads, uint8_t *bad, int64_t *certified);
+                 const Stars *stars, int threads, uint8_t *bad);
 
 /* ---- search.c: the pair search ------------------------------------------------------- */
 

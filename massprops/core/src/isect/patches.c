@@ -104,7 +104,6 @@ typedef struct {
     int64_t n_blocks;
     int64_t *cut;             /* n_blocks + 1 entry cuts, at key boundaries */
     Scratch *scratch;         /* per worker */
-    int64_t *certified;       /* per block: faces' entries in certified cells */
 } Patches;
 
 static inline uint64_t mix(uint64_t h)
@@ -408,25 +407,24 @@ static void mark_bad(const Patches *pa, const uint32_t *list, int64_t k)
 }
 
 /* Certify the cell `cell` at `level` holding list[0..k); failing that, its children, down to
- * PATCH_FINEST; faces of the cells that fail are marked.  Returns the faces' entries certified. */
-static int64_t certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k, int level,
+ * PATCH_FINEST; faces of the cells that fail are marked. */
+static void certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k, int level,
                             const int64_t *cell)
 {
     if (patch_reserve(sc, k) < 0) {
         mark_bad(pa, list, k);
-        return 0;
+        return;
     }
     if (patch(pa, sc, list, k))
-        return k;
+        return;
     if (level <= PATCH_FINEST || sc->failed) {
         mark_bad(pa, list, k);
-        return 0;
+        return;
     }
     const Grid *g = pa->g;
     int child = level - 1;
     uint32_t *sub = sc->list[child];
     uint8_t *octants = sc->octants[child];
-    int64_t done = 0;
     for (int64_t i = 0; i < k; i++) {
         int64_t c0[3], c1[3];
         grid_face_cells(g, list[i], child, c0, c1);
@@ -446,9 +444,8 @@ static int64_t certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list
             if (octants[i] >> octant & 1)
                 sub[n++] = list[i];
         if (n)
-            done += certify_cell(pa, sc, sub, n, child, at);
+            certify_cell(pa, sc, sub, n, child, at);
     }
-    return done;
 }
 
 static void patch_block(void *ctx, int worker, int64_t block)
@@ -456,23 +453,21 @@ static void patch_block(void *ctx, int worker, int64_t block)
     const Patches *pa = ctx;
     const Grid *g = pa->g;
     Scratch *sc = &pa->scratch[worker];
-    int64_t e = pa->cut[block], end = pa->cut[block + 1], done = 0;
+    int64_t e = pa->cut[block], end = pa->cut[block + 1];
     while (e < end) {
         int64_t run = e + 1;
         while (run < end && g->key[run] == g->key[e])
             run++;
         int64_t cell[3];
         grid_key_cell(g->key[e] & ((1ULL << LEVEL_SHIFT) - 1), cell);
-        done += certify_cell(pa, sc, g->face + e, run - e, (int)(g->key[e] >> LEVEL_SHIFT), cell);
+        certify_cell(pa, sc, g->face + e, run - e, (int)(g->key[e] >> LEVEL_SHIFT), cell);
         e = run;
     }
-    pa->certified[block] = done;
 }
 
 int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
-                 const Stars *stars, int threads, uint8_t *bad, int64_t *certified)
+                 const Stars *stars, int threads, uint8_t *bad)
 {
-    *certified = 0;
     /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
      * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
     int64_t taken = 0;
@@ -496,7 +491,6 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     int64_t want = g.n_entries / PATCH_BLOCK + 1;
     int workers = threads < 1 ? 1 : threads;
     pa.cut = malloc(sizeof(int64_t) * (want + 2));
-    pa.certified = calloc(want + 1, sizeof(int64_t));
     pa.scratch = calloc(workers, sizeof(Scratch));
     status = -1;
     int ready = pa.scratch != NULL;
@@ -505,7 +499,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
         pa.scratch[k].vertex_bits = calloc((stars->n >> 6) + 1, sizeof(uint64_t));
         ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_bits;
     }
-    if (pa.cut && pa.certified && ready) {
+    if (pa.cut && ready) {
         int64_t n_cuts = 0, at = 0;
         pa.cut[n_cuts++] = 0;
         while (at < g.n_entries && n_cuts <= want) {
@@ -520,14 +514,12 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
         status = 0;
         for (int k = 0; k < workers; k++)
             status = pa.scratch[k].failed ? -1 : status;
-        for (int64_t b = 0; b < pa.n_blocks; b++)
-            *certified += pa.certified[b];
     }
     for (int k = 0; pa.scratch && k < workers; k++) {
         scratch_release(&pa.scratch[k]);
         free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
     }
-    free(pa.cut), free(pa.certified), free(pa.scratch);
+    free(pa.cut), free(pa.scratch);
     grid_free(&g);
     return status;
 }

@@ -761,9 +761,8 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
      * (patches.c): the pairs they form there are certified, and any other pair is in a cell that
      * failed, whose faces are all searched. */
     if (within && have_stars && taken > 1) {
-        uint8_t *bad = calloc(m ? m : 1, 1);
-        int64_t certified = 0;
-        if (bad && patches_mark(V, F, shell, take, m, stars, threads, bad, &certified) == 0) {
+        uint8_t *bad = isect_alloc(m, 1);
+        if (bad && patches_mark(V, F, shell, take, m, stars, threads, bad) == 0) {
             taken = 0;
             for (int64_t t = 0; t < m; t++) {
                 take[t] = take[t] && bad[t];
