@@ -25,7 +25,7 @@ import time
 
 from bench_props import icosphere_stl, measure, torus_stl
 
-SIZES = (10_000, 30_000, 100_000, 200_000, 300_000)
+SIZES = (10_000, 30_000, 100_000, 200_000, 300_000, 1_200_000)
 
 
 def _end_to_end(path, repeats):

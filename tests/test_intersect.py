@@ -463,3 +463,72 @@ def test_two_flat_fans_crossing_in_one_shell_are_found_pair_by_pair(k1, k2, jitt
     assert reported == expected
     stars, _ = geometry.certificates(np.array(faces))
     assert stars[0] and stars[k1 + 1]
+
+
+def _finely_cut_box(n, rng, spike):
+    """A closed box [0, 4n]^3 whose sides are n x n grids of squares cut in two (integer coordinates),
+    each side's inner grid points moved out by 0 or 1, and the middle of the bottom pushed up to
+    height `spike`: not star-shaped about its centre, so the search certifies it patch by patch
+    (cells of a coarse grid whose faces are one disk that projects one-to-one)."""
+    index, points, faces = {}, [], []
+    side = 4 * n
+    for axis in range(3):
+        u, v = (axis + 1) % 3, (axis + 2) % 3
+        for high in (0, 1):
+            grid = []
+            for i in range(n + 1):
+                row = []
+                for j in range(n + 1):
+                    p = [0, 0, 0]
+                    p[axis], p[u], p[v] = high * side, 4 * i, 4 * j
+                    row.append(index.setdefault(tuple(p), len(index)))
+                    if row[-1] == len(points):
+                        points.append(p)
+                grid.append(row)
+            for i in range(n):
+                for j in range(n):
+                    a, b, c, d = grid[i][j], grid[i + 1][j], grid[i + 1][j + 1], grid[i][j + 1]
+                    for f in ([[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]):
+                        faces.append(f if high else f[::-1])
+    for p in points:
+        inner = [a for a in range(3) if 0 < p[a] < side]
+        if len(inner) == 2:
+            axis = 3 - sum(inner)
+            p[axis] += (1 if p[axis] == side else -1) * int(rng.integers(0, 2))
+    middle = next(p for p in points if p[0] == p[1] == 4 * (n // 2) and p[2] <= 0)
+    middle[2] = spike
+    return points, faces
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2 ** 31), st.sampled_from([12, 30]), st.integers(0, 3), st.sampled_from([0, -40, 60]))
+def test_a_shell_certified_patch_by_patch_meets_itself_exactly_where_pairs_of_its_faces_do(seed, spike, folds,
+                                                                                           scale):
+    """A finely cut box, its spike short of the top or through it, with up to three points of its
+    top slid across their neighbours (the top folds over itself, or its faces cross): patches of
+    faces proved embedded skip their pairs, and the pairs found are exactly those of every pair of
+    faces tested exactly."""
+    rng = np.random.default_rng(seed)
+    points, faces = _finely_cut_box(5, rng, spike)
+    top = [p for p in points if p[2] >= 20 and 0 < p[0] < 20 and 0 < p[1] < 20]
+    for k in rng.choice(len(top), size=folds, replace=False):
+        top[k][0] += int(rng.integers(-9, 10))
+        top[k][1] += int(rng.integers(-9, 10))
+        top[k][2] += int(rng.integers(-6, 3))
+    if any(_area_zero([points[i] for i in f]) for f in faces):
+        return
+    reported, _ = search_pairs(np.array(points, dtype=float) * 2.0 ** scale, faces)
+    assert reported == crossing_pairs(points, faces)
+
+
+def test_a_shell_certified_patch_by_patch_is_found_the_same_on_any_thread_count():
+    rng = np.random.default_rng(3)
+    points, faces = _finely_cut_box(8, rng, 40)
+    geometry = ExactGeometry(np.array(points, dtype=float))
+    labels = np.zeros(len(faces), dtype=np.int64)
+    results = []
+    for threads in (1, 2, 3):
+        found = geometry.intersections(np.array(faces), labels, 1, within=True, between=False, threads=threads,
+                                       max_examples=10 ** 6)
+        results.append((found.self_found.tolist(), found.examples.tolist()))
+    assert results[0] == results[1] == results[2] and results[0][0] == [True]

@@ -58,7 +58,9 @@ class Intersections:
         Face pairs the grid proposed, and pairs that reached the exact test.
     certified_shells, certified_vertices : int
         Shells, and vertices' stars, certified embedded as a whole (their face
-        pairs need no test; see :meth:`ExactGeometry.certificates`).
+        pairs need no test; see :meth:`ExactGeometry.certificates`).  Stars are
+        only certified for the faces no patch covers (a patch: the faces of a
+        cell of a coarse grid proved to be one embedded disk).
     pinched : int or None
         Vertices whose faces do not turn once around them (two bodies
         touching at a vertex or an edge, an edge of more than two faces);

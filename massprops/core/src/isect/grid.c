@@ -20,6 +20,21 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+void *isect_alloc(size_t bytes, int zeroed)
+{
+    void *data = zeroed ? calloc(bytes ? bytes : 1, 1) : malloc(bytes ? bytes : 1);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    const uintptr_t huge = (uintptr_t)1 << 21;
+    uintptr_t start = ((uintptr_t)data + huge - 1) & ~(huge - 1), end = ((uintptr_t)data + bytes) & ~(huge - 1);
+    if (data && bytes >= 4 * huge && end > start)
+        madvise((void *)start, end - start, MADV_HUGEPAGE);
+#endif
+    return data;
+}
 
 /* A certified vertex with at least this many faces groups them (below, pairs are skipped one
  * by one, which costs less than the grouping). */
@@ -122,7 +137,7 @@ int64_t grid_find(const Grid *g, int level, uint64_t key)
 
 void grid_free(Grid *g)
 {
-    free(g->id), free(g->own_corner), free(g->own_shell), free(g->lo), free(g->hi), free(g->low_cell),
+    free(g->id), free(g->own_corner), free(g->own_shell), free(g->lo), free(g->hi), free(g->low_cell), free(g->high_cell),
         free(g->own_axis), free(g->level), free(g->certified), free(g->group_begin), free(g->group_end), free(g->key),
         free(g->face);
     memset(g, 0, sizeof(*g));
@@ -163,6 +178,21 @@ static double kth_smallest(double *x, int n, int k)
 static inline double face_extent(const double *lo, const double *hi)
 {
     return dmax(hi[0] - lo[0], dmax(hi[1] - lo[1], hi[2] - lo[2]));
+}
+
+/* Face t's box: stored, or (a coarse grid, which keeps none) from its corners. */
+static inline void face_box(const Grid *g, int64_t t, double *lo, double *hi)
+{
+    if (g->lo) {
+        for (int k = 0; k < 3; k++)
+            lo[k] = g->lo[3 * t + k], hi[k] = g->hi[3 * t + k];
+        return;
+    }
+    P a = g->V + 3 * g->corner[3 * t], b = g->V + 3 * g->corner[3 * t + 1], c = g->V + 3 * g->corner[3 * t + 2];
+    for (int k = 0; k < 3; k++) {
+        lo[k] = dmin(a[k], dmin(b[k], c[k]));
+        hi[k] = dmax(a[k], dmax(b[k], c[k]));
+    }
 }
 
 /* The hub of face t: its certified corner of largest degree (at least HUB_DEGREE), else -1. */
@@ -243,7 +273,9 @@ static int choose_base(Grid *g, double whole, double *base)
         return -1;
     for (int s = 0; s < samples; s++) {
         int64_t t = (int64_t)((double)s * n / samples);
-        extent[s] = face_extent(g->lo + 3 * t, g->hi + 3 * t);
+        double lo[3], hi[3];
+        face_box(g, t, lo, hi);
+        extent[s] = face_extent(lo, hi);
     }
     double largest = 0.0;                       /* extents are >= 0 */
     for (int s = 0; s < samples; s++)
@@ -274,6 +306,7 @@ typedef struct {
     int64_t *hubs;            /* per block of input faces: faces taken with a hub */
     double *lo, *hi;          /* per input face taken: its box (3 each) */
     uint8_t *certified;       /* per input face taken: its certified corners */
+    int force_level;          /* every face at this level (-1: each at its own) */
 } Build;
 
 /* Input faces of one block: each taken face's projection axis (-1: not taken or zero area), box
@@ -296,8 +329,10 @@ static void axis_block(void *ctx, int64_t block)
         uint8_t certified = 0;
         for (int k = 0; k < 3; k++) {
             double lo = dmin(a[k], dmin(b[k], c[k])), hi = dmax(a[k], dmax(b[k], c[k]));
-            w->lo[3 * t + k] = lo;
-            w->hi[3 * t + k] = hi;
+            if (w->lo) {
+                w->lo[3 * t + k] = lo;
+                w->hi[3 * t + k] = hi;
+            }
             box[k] = dmin(box[k], lo);
             box[3 + k] = dmax(box[3 + k], hi);
             if (w->stars && (w->stars->flag[w->F[3 * t + k]] & STAR_EMBEDDED))
@@ -326,8 +361,10 @@ static void fill_block(void *ctx, int64_t block)
         g->certified[s] = w->certified[t];
         for (int k = 0; k < 3; k++) {
             g->own_corner[3 * s + k] = w->F[3 * t + k];
-            g->lo[3 * s + k] = w->lo[3 * t + k];
-            g->hi[3 * s + k] = w->hi[3 * t + k];
+            if (g->lo) {
+                g->lo[3 * s + k] = w->lo[3 * t + k];
+                g->hi[3 * s + k] = w->hi[3 * t + k];
+            }
         }
     }
 }
@@ -353,19 +390,24 @@ static int fill_faces(Grid *g, Build *w, int threads)
         w->certified = NULL;
     } else {
         g->id = malloc(sizeof(uint32_t) * n);
-        g->corner = g->own_corner = malloc(sizeof(int64_t) * 3 * n);
-        g->shell = g->own_shell = malloc(sizeof(int64_t) * n);
+        g->corner = g->own_corner = isect_alloc(sizeof(int64_t) * 3 * n, 0);
+        g->shell = g->own_shell = isect_alloc(sizeof(int64_t) * n, 0);
         g->axis = g->own_axis = malloc(n);
-        g->lo = malloc(sizeof(double) * 3 * n);
-        g->hi = malloc(sizeof(double) * 3 * n);
+        if (w->lo) {
+            g->lo = isect_alloc(sizeof(double) * 3 * n, 0);
+            g->hi = isect_alloc(sizeof(double) * 3 * n, 0);
+        }
         g->certified = malloc(n);
-        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || !g->lo || !g->hi || !g->certified)
+        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || (w->lo && (!g->lo || !g->hi))
+            || !g->certified)
             return -1;
         parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);
     }
-    g->low_cell = malloc(sizeof(int32_t) * 3 * n);
+    g->low_cell = isect_alloc(sizeof(int32_t) * 3 * n, 0);
     g->level = malloc(n);
     if (!g->low_cell || !g->level)
+        return -1;
+    if (!g->lo && !(g->high_cell = isect_alloc(sizeof(int32_t) * 3 * n, 0)))
         return -1;
     if (!grouped)
         return 0;
@@ -396,17 +438,23 @@ static void level_block(void *ctx, int64_t block)
     double base = w->base;
     int64_t s0 = block * BUILD_BLOCK, s1 = s0 + BUILD_BLOCK < g->n ? s0 + BUILD_BLOCK : g->n, entries = 0;
     for (int64_t t = s0; t < s1; t++) {
-        double e = face_extent(g->lo + 3 * t, g->hi + 3 * t), size = base;
-        int level = 0;
-        while (level < MAX_LEVEL && e > size) {
-            level++;
-            size = ldexp(base, level);
+        double lo[3], hi[3];
+        face_box(g, t, lo, hi);
+        int level = w->force_level >= 0 ? w->force_level : 0;
+        if (w->force_level < 0) {
+            double e = face_extent(lo, hi), size = base;
+            while (level < MAX_LEVEL && e > size) {
+                level++;
+                size = ldexp(base, level);
+            }
         }
         g->level[t] = (int8_t)level;
         int64_t count = 1;
         for (int k = 0; k < 3; k++) {
-            int64_t c0 = grid_cell0(g, k, g->lo[3 * t + k]), c1 = grid_cell0(g, k, g->hi[3 * t + k]);
+            int64_t c0 = grid_cell0(g, k, lo[k]), c1 = grid_cell0(g, k, hi[k]);
             g->low_cell[3 * t + k] = (int32_t)c0;
+            if (g->high_cell)
+                g->high_cell[3 * t + k] = (int32_t)c1;
             count *= (c1 >> level) - (c0 >> level) + 1;
         }
         entries += count;
@@ -437,15 +485,23 @@ static void key_block(void *ctx, int64_t block)
 int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
                const Stars *stars, int threads)
 {
+    return grid_build_at(g, V, F, shell, take, m, stars, threads, -1, 0);
+}
+
+int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                  const Stars *stars, int threads, int force_level, int64_t max_entries_per_face)
+{
     memset(g, 0, sizeof(*g));
     g->V = V;
     int64_t n_blocks = (m + BUILD_BLOCK - 1) / BUILD_BLOCK;
     Build w = {g, V, F, shell, NULL, NULL, take, stars, malloc(m ? m : 1), m, 0.0,
                malloc(sizeof(double[6]) * (n_blocks + 1)), malloc(sizeof(int64_t) * (n_blocks + 1)),
                malloc(sizeof(int64_t) * (n_blocks + 1)),
-               malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(sizeof(double) * 3 * (m ? m : 1)), malloc(m ? m : 1)};
+               force_level < 0 ? isect_alloc(sizeof(double) * 3 * m, 0) : NULL,
+               force_level < 0 ? isect_alloc(sizeof(double) * 3 * m, 0) : NULL, malloc(m ? m : 1),
+               force_level};
     int status = -1;
-    if (!w.axis || !w.box || !w.count || !w.hubs || !w.lo || !w.hi || !w.certified)
+    if (!w.axis || !w.box || !w.count || !w.hubs || (force_level < 0 && (!w.lo || !w.hi)) || !w.certified)
         goto done;
     parallel_blocks(threads, n_blocks, axis_block, &w);
     double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -498,6 +554,10 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
         w.count[k] = n_entries;
         n_entries += c;
     }
+    if (max_entries_per_face > 0 && n_entries > max_entries_per_face * n) {
+        status = 1;
+        goto done;
+    }
     for (int64_t t = 0; t < n; t++)
         g->used[g->level[t]] = 1;
     int used_levels[MAX_LEVEL + 1];
@@ -507,10 +567,10 @@ int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell,
             used_levels[g->n_used++] = level;
     memcpy(g->used, used_levels, sizeof(int) * g->n_used);
     g->n_entries = n_entries;
-    g->key = malloc(sizeof(uint64_t) * n_entries);
-    g->face = malloc(sizeof(uint32_t) * n_entries);
-    uint64_t *tk = malloc(sizeof(uint64_t) * n_entries);
-    uint32_t *tv = malloc(sizeof(uint32_t) * n_entries);
+    g->key = isect_alloc(sizeof(uint64_t) * n_entries, 0);
+    g->face = isect_alloc(sizeof(uint32_t) * n_entries, 0);
+    uint64_t *tk = isect_alloc(sizeof(uint64_t) * n_entries, 0);
+    uint32_t *tv = isect_alloc(sizeof(uint32_t) * n_entries, 0);
     if (!g->key || !g->face || !tk || !tv) {
         free(tk), free(tv);
         goto done;

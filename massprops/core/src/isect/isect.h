@@ -3,11 +3,13 @@
  * The caller passes coordinates scaled to about unit size whose non-zero
  * magnitudes are at least 2**-200, so no product of coordinate differences
  * under- or overflows and the predicates (predicates.h) are exact.  Every
- * "these faces do not meet" comes from one of three places, each proved in
+ * "these faces do not meet" comes from one of four places, each proved in
  * its file:
  *
  *   stars.c   certificates that a vertex's star, or a whole shell, is
  *             embedded (its faces meet only along what they share);
+ *   patches.c certificates that the faces of a cell of a coarse grid are one
+ *             disk that projects one-to-one along an axis (then embedded);
  *   search.c  a float plane-separation filter with a certified bound, then
  *             the exact closed-set tests of predicates.h;
  *   grid.c    the broad phase: faces whose boxes are disjoint never meet.
@@ -24,9 +26,13 @@
 #include "../core.h"
 #include "predicates.h"
 
+/* malloc (calloc when `zeroed`) of a large array, advised into transparent huge pages where the
+ * kernel offers them on request: one page fault per 2 MiB instead of 512 (grid.c). */
+void *isect_alloc(size_t bytes, int zeroed);
+
 /* ---- stars.c: which faces are known to meet only along what they share ---------------- */
 
-enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2 };
+enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2, STAR_TRIED = 4 };
 
 typedef struct {
     const double *V;
@@ -37,6 +43,7 @@ typedef struct {
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
+    int64_t max_degree;
 } Stars;
 
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
@@ -44,6 +51,13 @@ typedef struct {
  * 0 <= F < n and m < 2**30. */
 int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
                 int64_t n_shells, const uint8_t *wanted, int threads);
+/* The same; with `lazy`, the shells' certificates and the cycles only: no vertex's star is
+ * certified until stars_certify_corners asks for it. */
+int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
+                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy);
+/* Star certificates (as stars_build gives them) for the corners of the faces with take[t] set;
+ * 0, or -1 when memory ran out (then fewer are certified).  Does not depend on the thread count. */
+int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads);
 void stars_free(Stars *s);
 
 static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v + 1] - s->begin[v]; }
@@ -63,8 +77,9 @@ typedef struct {
     const int8_t *axis;
     int64_t *own_corner, *own_shell;     /* what corner and shell point to when copied */
     int8_t *own_axis;
-    double *lo, *hi;          /* 3 per face: the face's box */
+    double *lo, *hi;          /* 3 per face: the face's box (NULL in a coarse grid: high_cell instead) */
     int32_t *low_cell;        /* 3 per face: level-0 cell of lo */
+    int32_t *high_cell;       /* 3 per face: level-0 cell of hi (a coarse grid only, else NULL) */
     int8_t *level;
     uint8_t *certified;       /* bit k: the star of corner k is certified embedded */
     uint32_t *group_begin, *group_end;   /* faces sharing a hub vertex: consecutive, [begin, end)
@@ -83,6 +98,11 @@ typedef struct {
  * depend on the thread count. */
 int grid_build(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
                const Stars *stars, int threads);
+/* The same with every face at `force_level` (>= 0; cells of side base * 2**force_level), or at
+ * its own level (-1); 1 (nothing built) when there would be more than max_entries_per_face
+ * entries a face (0: no limit). */
+int grid_build_at(Grid *g, const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                  const Stars *stars, int threads, int force_level, int64_t max_entries_per_face);
 void grid_free(Grid *g);
 
 static inline int64_t grid_id(const Grid *g, int64_t t) { return g->id ? g->id[t] : t; }
@@ -106,7 +126,7 @@ static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t 
 {
     for (int k = 0; k < 3; k++) {
         c0[k] = (int64_t)g->low_cell[3 * t + k] >> level;
-        c1[k] = grid_cell0(g, k, g->hi[3 * t + k]) >> level;
+        c1[k] = (g->high_cell ? (int64_t)g->high_cell[3 * t + k] : grid_cell0(g, k, g->hi[3 * t + k])) >> level;
     }
 }
 
@@ -117,6 +137,15 @@ int64_t grid_find(const Grid *g, int level, uint64_t key);
 
 /* Sort (key, value) pairs by key, stably; tk, tv: scratch of n entries.  0, or -1 out of memory. */
 int radix_sort(uint64_t *key, uint32_t *value, uint64_t *tk, uint32_t *tv, int64_t n);
+
+/* ---- patches.c: cells of a coarse grid certified embedded --------------------------------- */
+
+/* Set bad[t] (original face index) for each face taken that lies in some coarse cell whose
+ * faces could not be certified embedded (they must be searched); faces of certified cells are
+ * left 0.  0; 1 when nothing was done (too many entries: every face must be searched); -1 out
+ * of memory (then too, every face must be searched). */
+int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                 const Stars *stars, int threads, uint8_t *bad);
 
 /* ---- search.c: the pair search ------------------------------------------------------- */
 

@@ -189,6 +189,10 @@ static int triangle_axis(P p, P q, P r)
     double ux = q[0] - p[0], uy = q[1] - p[1], uz = q[2] - p[2];
     double vx = r[0] - p[0], vy = r[1] - p[1], vz = r[2] - p[2];
     double n[3] = {fabs(uy * vz - uz * vy), fabs(uz * vx - ux * vz), fabs(ux * vy - uy * vx)};
+    /* the axis a stable sort by decreasing |n| puts first: the common answer, without the sort */
+    int first = n[0] >= n[1] ? (n[0] >= n[2] ? 0 : 2) : (n[1] >= n[2] ? 1 : 2);
+    if (porient(first, p, q, r) != 0)
+        return first;
     int order[3] = {0, 1, 2};
     for (int i = 0; i < 2; i++)
         for (int j = 0; j < 2 - i; j++)

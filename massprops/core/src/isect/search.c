@@ -1,6 +1,9 @@
 /* The pair search: which faces meet, within a shell and between shells.
  *
- * Candidates come from the grid (grid.c): pairs of faces in one cell (within
+ * When looking within shells, faces that lie only in cells of a coarse grid
+ * certified as embedded patches (patches.c) are left out first; the vertex
+ * stars of the faces left are certified then (stars.c).  Candidates come from
+ * the grid (grid.c) of the faces left: pairs of faces in one cell (within
  * a level, the pairs a sweep along one axis finds overlapping there; a cell
  * holding a hub group lists every pair but the group's).  Each pair is
  * decided once, in the cell of max(their boxes' lower corners) at the coarser
@@ -745,7 +748,7 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         for (int64_t t = 0; t < m; t++)
             wanted[shell[t]] |= active[t];
         /* out of memory for the certificates: every pair is tested */
-        have_stars = stars_build(stars, V, F, n, m, shell, n_shells, wanted, threads) == 0;
+        have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
         free(wanted);
     }
     /* Faces whose every pair is certified take no part unless other shells may meet them. */
@@ -754,6 +757,23 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         take[t] = active[t] && (between || !have_stars || !stars->shell_embedded[shell[t]]);
         taken += take[t];
     }
+    /* Faces in cells of a coarse grid certified embedded as a patch need no search of their own
+     * (patches.c): the pairs they form there are certified, and any other pair is in a cell that
+     * failed, whose faces are all searched. */
+    if (within && have_stars && taken > 1) {
+        uint8_t *bad = isect_alloc(m, 1);
+        if (bad && patches_mark(V, F, shell, take, m, stars, threads, bad) == 0) {
+            taken = 0;
+            for (int64_t t = 0; t < m; t++) {
+                take[t] = take[t] && bad[t];
+                taken += take[t];
+            }
+        }
+        free(bad);
+    }
+    /* the stars of the faces left to search, which the search skips pairs by */
+    if (have_stars && taken)
+        stars_certify_corners(stars, shell, take, threads);
     Grid g;
     memset(&g, 0, sizeof(g));
     int status = taken ? grid_build(&g, V, F, shell, take, m, have_stars ? stars : NULL, threads) : 0;

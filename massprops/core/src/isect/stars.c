@@ -97,8 +97,8 @@ enum { SIGN_NONE = 0, SIGN_MIXED = 2 };
 static int build_incidences(Stars *s)
 {
     int64_t n = s->n, m = s->m;
-    s->begin = calloc(n + 2, sizeof(int64_t));
-    s->ring = malloc(sizeof(uint32_t) * 3 * (m ? m : 1));
+    s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
+    s->ring = isect_alloc(sizeof(uint32_t) * 3 * m, 0);
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
@@ -321,6 +321,7 @@ typedef struct {
     int64_t *faces, *vertices;
     Scratch *scratch;         /* per worker */
     int certify_failed;       /* the second vertex pass: local certificates for shells that failed (b) */
+    int lazy;                 /* no star certificates here: stars_certify_corners gives them on demand */
     int64_t certified;        /* vertices certified by their stars */
 } ShellWork;
 
@@ -489,7 +490,7 @@ static void vertex_block(void *ctx, int worker, int64_t block)
                 sc->above[i] = porient(drop, s->V + 3 * sc->link[i], c, pv) > 0;
             if (!one_upward_crossing(sc->above, k))
                 __atomic_store_n(&w->failed[sh], 1, __ATOMIC_RELAXED);
-        } else if (star_embedded(s->V, pv, sc->link, k, sc->above)) {
+        } else if (!w->lazy && star_embedded(s->V, pv, sc->link, k, sc->above)) {
             s->flag[v] |= STAR_EMBEDDED;
             certified++;
         }
@@ -498,10 +499,11 @@ static void vertex_block(void *ctx, int worker, int64_t block)
     __atomic_fetch_add(&w->certified, certified, __ATOMIC_RELAXED);
 }
 
-static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8_t *wanted, int threads)
+static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8_t *wanted, int threads, int lazy)
 {
     ShellWork w;
     memset(&w, 0, sizeof(w));
+    w.lazy = lazy;
     w.s = s;
     w.shell = shell;
     w.wanted = wanted;
@@ -510,6 +512,7 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     int64_t max_degree = 3;
     for (int64_t v = 0; v < s->n; v++)
         max_degree = star_degree(s, v) > max_degree ? star_degree(s, v) : max_degree;
+    s->max_degree = max_degree;
     w.origin = malloc(sizeof(int64_t) * n_shells);
     w.sums = calloc((size_t)workers * n_shells * SUMS, sizeof(double));
     w.centre = malloc(sizeof(double) * 3 * n_shells);
@@ -563,7 +566,7 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
         s->certified_shells += s->shell_embedded[sh];
         again |= wanted[sh] && uniform && !s->shell_embedded[sh];
     }
-    if (again) {
+    if (again && !w.lazy) {
         w.certify_failed = 1;
         parallel_workers(workers, vertex_blocks, vertex_block, &w);
     }
@@ -580,6 +583,12 @@ done:
 int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
                 int64_t n_shells, const uint8_t *wanted, int threads)
 {
+    return stars_build_lazy(s, V, F, n, m, shell, n_shells, wanted, threads, 0);
+}
+
+int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
+                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy)
+{
     memset(s, 0, sizeof(*s));
     s->V = V;
     s->F = F;
@@ -587,11 +596,75 @@ int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t 
     s->m = m;
     s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
     if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s) < 0
-        || certify(s, shell, n_shells, wanted, threads) < 0) {
+        || certify(s, shell, n_shells, wanted, threads, lazy) < 0) {
         stars_free(s);
         return -1;
     }
     return 0;
+}
+
+/* ---- star certificates on demand ---------------------------------------------------------- */
+
+typedef struct {
+    Stars *s;
+    const int64_t *shell;
+    const uint8_t *take;
+    Scratch *scratch;         /* per worker */
+    int64_t certified;
+} Corners;
+
+/* The star certificate of each corner of the block's faces taken, each vertex once (the first
+ * thread to mark it tried computes it; the result does not depend on which). */
+static void corners_block(void *ctx, int worker, int64_t block)
+{
+    Corners *w = ctx;
+    Stars *s = w->s;
+    Scratch *sc = &w->scratch[worker];
+    int64_t end = (block + 1) * FACE_BLOCK < s->m ? (block + 1) * FACE_BLOCK : s->m, certified = 0;
+    for (int64_t t = block * FACE_BLOCK; t < end; t++) {
+        if (!w->take[t])
+            continue;
+        for (int c = 0; c < 3; c++) {
+            int64_t v = s->F[3 * t + c];
+            uint8_t flag = __atomic_load_n(&s->flag[v], __ATOMIC_RELAXED);
+            if ((flag & STAR_TRIED) || !(flag & STAR_CYCLE))
+                continue;
+            if (__atomic_fetch_or(&s->flag[v], STAR_TRIED, __ATOMIC_RELAXED) & STAR_TRIED)
+                continue;
+            int64_t sh = star_shell(s, w->shell, v);
+            if (sh < 0 || s->shell_embedded[sh])
+                continue;
+            int64_t k = star_degree(s, v);
+            for (int64_t i = 0; i < k; i++) {
+                uint32_t r = s->ring[s->begin[v] + i];
+                int corner = r & 3;
+                sc->link[i] = s->F[3 * (r >> 2) + (corner == 2 ? 0 : corner + 1)];
+            }
+            if (star_embedded(s->V, s->V + 3 * v, sc->link, k, sc->above)) {
+                __atomic_fetch_or(&s->flag[v], STAR_EMBEDDED, __ATOMIC_RELAXED);
+                certified++;
+            }
+        }
+    }
+    __atomic_fetch_add(&w->certified, certified, __ATOMIC_RELAXED);
+}
+
+int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads)
+{
+    int workers = threads < 1 ? 1 : threads;
+    Corners w = {s, shell, take, calloc(workers, sizeof(Scratch)), 0};
+    if (!w.scratch)
+        return -1;
+    int ready = 0;
+    while (ready < workers && scratch_init(&w.scratch[ready], s->max_degree) == 0)
+        ready++;
+    if (ready > 0)
+        parallel_workers(ready, (s->m + FACE_BLOCK - 1) / FACE_BLOCK, corners_block, &w);
+    for (int k = 0; k < ready; k++)
+        scratch_free(&w.scratch[k]);
+    free(w.scratch);
+    s->certified_vertices += w.certified;
+    return ready > 0 ? 0 : -1;
 }
 
 void stars_free(Stars *s)

@@ -1,0 +1,525 @@
+/* Patch certificates: whole cells of a coarse grid whose faces are proved to meet only along
+ * what they share, so that the pair search skips them.
+ *
+ * On a shell that is not star-shaped (a torus, most machined parts) the
+ * search would otherwise enumerate every pair of neighbouring faces whose
+ * boxes meet.  Here a coarse grid (cells 8 times the search's; grid.c, every
+ * face at one level) is built first, and each cell's faces are certified as
+ * one embedded patch when they can be; failing that, each of the cell's
+ * children, then each of theirs.  Only faces in some cell that is not
+ * certified go on to the pair search.
+ *
+ * WHY THAT MISSES NO PAIR.  Two faces whose closed boxes meet are both in
+ * the cell (at any level of this grid) that holds the maximum of their
+ * boxes' lower corners (grid.c): that point lies in both boxes.  That cell
+ * is one of the tree of cells tried here, so either some tried cell holding
+ * both faces was certified, and then they meet only along what they share,
+ * or the last one tried was not, and both faces are searched.
+ *
+ * PATCH CERTIFICATE.  Let D be a set of faces of one shell (each face a
+ * triangle of positive area, its corners vertex indices), k an axis, and
+ * pi the projection dropping k.  Suppose
+ *   (a) every face of D has orient2d of its projection of one strict sign;
+ *   (b) every vertex of D is manifold (stars.c: its faces chain into one
+ *       cycle), and either all its faces are in D ("interior": then it
+ *       satisfies the star condition (2) of stars.c with d = e_k, y the
+ *       coordinate after k) or those in D are one run of its cycle
+ *       ("boundary");
+ *   (c) 2V - F - B = 2, V the vertices of D, F its faces, B its boundary
+ *       vertices, and the boundary edges (edges of one face of D whose other
+ *       face is not in D) form one loop through all B of them;
+ *   (d) the projection of that loop is a simple polygon: no two of its edges
+ *       meet but consecutive ones, at their common corner only.
+ * Then no two faces of D meet other than along what they share.
+ * Proof.  Glue the faces of D along shared vertex indices: by (b) each
+ * vertex is an interior point (a full cycle) or a boundary point (one run)
+ * of a compact surface |D| with boundary, oriented by the faces' winding
+ * (edges shared by two faces of D are wound oppositely: stars.c).  Every
+ * boundary vertex has one outgoing and one incoming boundary edge, so the
+ * boundary edges form loops; (c) says there is one, and with E = (3F + B) / 2
+ * edges, V - E + F = 1.  Every component of |D| has boundary: a closed
+ * component's projected areas, all of one strict sign by (a), would add up to
+ * zero.  So |D| is connected, and a connected orientable surface with one
+ * boundary loop and Euler characteristic 1 is a disk.  pi is a local
+ * homeomorphism on the interior of |D| that keeps orientation: on faces by
+ * (a); across an interior edge because the two faces, wound oppositely along
+ * it and both of one projected sign, lie on the two sides of its projection;
+ * at an interior vertex by the star certificate of stars.c (its condition (1)
+ * is (a), its condition (2) is checked).  For a point p off the projected
+ * loop, the number of its preimages (all interior, each counted +1) is the
+ * loop's winding number about p, which by (d) (a Jordan curve) is 0 or 1.
+ * Two points x != x' with pi(x) = pi(x') = p are then impossible: if both lie
+ * on the boundary, (d); otherwise one of them, say x, is interior, pi maps a
+ * neighbourhood of x onto a neighbourhood U of p, and the interior points
+ * near x' map into U onto an open set, whose points off the loop (the loop
+ * has no interior) have a preimage near x and another near x'.  So pi is
+ * injective on |D|, and a point common to two faces of D in space is one
+ * point of |D|: one of the vertices or edges they share.  []
+ * Everything is decided exactly: (a) and (d) with orient2d, (b)'s condition
+ * (2) and (d)'s collinear cases with coordinate comparisons.  A patch that
+ * fails proves nothing and costs nothing but its time: its faces are searched.
+ */
+#include "isect.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The coarsest cells' level (the search's cells are level 0 at its base size), the finest level
+ * tried, and the most entries a face may have in the coarse grid (beyond: no patches). */
+#define PATCH_LEVEL 3
+#define PATCH_FINEST 0
+#define PATCH_ENTRY_LIMIT 3
+/* A vertex of more faces fails its cells (each cell holding it would walk all its faces: a fan's hub
+ * is left to the search, which skips a hub's pairs as a block). */
+#define PATCH_MAX_DEGREE 64
+/* Entries per block of the parallel loop. */
+#define PATCH_BLOCK 16384
+
+typedef struct {
+    double lo, hi;
+    int64_t i;
+} Segment;
+
+typedef struct {
+    uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
+    uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
+    int64_t *vertex;          /* boundary vertices: index + 1, 0 empty (a hash table) */
+    int64_t *next;            /* per slot: the boundary edge's far end */
+    int64_t vertex_mask;
+    int64_t *boundary;        /* the boundary vertices in the table */
+    int64_t *loop;            /* the boundary loop's vertices */
+    Segment *segments, *sorted;
+    uint32_t *list[PATCH_LEVEL];   /* faces of a child cell, per depth */
+    uint8_t *octants[PATCH_LEVEL]; /* per face of a cell: the children it is in, per depth */
+    int64_t cap;              /* faces the arrays hold */
+    int failed;
+} Scratch;
+
+typedef struct {
+    const Grid *g;
+    const Stars *stars;
+    const uint8_t *embedded;  /* per shell, or NULL */
+    uint8_t *bad;             /* per original face: in some cell not certified */
+    int64_t n_blocks;
+    int64_t *cut;             /* n_blocks + 1 entry cuts, at key boundaries */
+    Scratch *scratch;         /* per worker */
+} Patches;
+
+static inline uint64_t mix(uint64_t h)
+{
+    h ^= h >> 33;
+    h *= 0xFF51AFD7ED558CCDULL;
+    h ^= h >> 33;
+    return h;
+}
+
+static void scratch_release(Scratch *sc)
+{
+    free(sc->vertex), free(sc->next), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
+    for (int d = 0; d < PATCH_LEVEL; d++)
+        free(sc->list[d]), free(sc->octants[d]);
+}
+
+static int patch_reserve(Scratch *sc, int64_t k)
+{
+    if (k <= sc->cap)
+        return 0;
+    int64_t cap = sc->cap ? sc->cap : 64;
+    while (cap < k)
+        cap *= 2;
+    int64_t vertices = 1;
+    while (vertices < 2 * 3 * cap)
+        vertices *= 2;
+    scratch_release(sc);
+    sc->cap = 0;
+    sc->vertex = calloc(vertices, sizeof(int64_t));
+    sc->next = malloc(sizeof(int64_t) * vertices);
+    sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
+    sc->loop = malloc(sizeof(int64_t) * 3 * cap);
+    sc->segments = malloc(sizeof(Segment) * 3 * cap);
+    sc->sorted = malloc(sizeof(Segment) * 3 * cap);
+    int ok = sc->vertex && sc->next && sc->boundary && sc->loop && sc->segments && sc->sorted;
+    for (int d = 0; d < PATCH_LEVEL; d++) {
+        ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
+        ok = (sc->octants[d] = malloc(cap)) && ok;
+    }
+    if (!ok) {
+        scratch_release(sc);
+        memset(sc->list, 0, sizeof(sc->list));
+        memset(sc->octants, 0, sizeof(sc->octants));
+        sc->vertex = sc->next = sc->boundary = sc->loop = NULL;
+        sc->segments = sc->sorted = NULL;
+        sc->failed = 1;
+        return -1;
+    }
+    sc->vertex_mask = vertices - 1;
+    sc->cap = cap;
+    return 0;
+}
+
+static inline int bit(const uint64_t *bits, int64_t i) { return (int)(bits[i >> 6] >> (i & 63) & 1); }
+static inline void set_bit(uint64_t *bits, int64_t i) { bits[i >> 6] |= 1ULL << (i & 63); }
+static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL << (i & 63)); }
+
+/* Add boundary vertex v, its boundary edge going to `to` (v is not there yet). */
+static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
+{
+    uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
+    while (sc->vertex[i])
+        i = (i + 1) & sc->vertex_mask;
+    sc->vertex[i] = v + 1;
+    sc->next[i] = to;
+    sc->boundary[count] = v;
+}
+
+/* The far end of boundary vertex v's boundary edge, or -1 when v is not a boundary vertex. */
+static inline int64_t boundary_next(const Scratch *sc, int64_t v)
+{
+    for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
+        if (sc->vertex[i] == v + 1)
+            return sc->next[i];
+        if (!sc->vertex[i])
+            return -1;
+    }
+}
+
+/* Empty what the patch list[0..k), with `boundary` boundary vertices, filled. */
+static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t boundary)
+{
+    for (int64_t i = 0; i < k; i++) {
+        clear_bit(sc->face_bits, grid_id(g, list[i]));
+        for (int c = 0; c < 3; c++)
+            clear_bit(sc->vertex_bits, g->corner[3 * (int64_t)list[i] + c]);
+    }
+    for (int64_t i = 0; i < boundary; i++) {
+        int64_t v = sc->boundary[i];
+        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s]; s = (s + 1) & sc->vertex_mask)
+            sc->vertex[s] = 0;
+    }
+}
+
+static inline int sign_of(double x) { return (x > 0.0) - (x < 0.0); }
+
+/* Consecutive projected loop edges p q and q r meet only at q (p, q, r already known collinear
+ * or not): (d) for neighbours.  u, w: the projection's coordinates. */
+static int turn_ok(int axis, P p, P q, P r, int u, int w)
+{
+    if (porient(axis, p, q, r) != 0)
+        return 1;
+    /* collinear: they overlap beyond q exactly when p and r lie on one side of q */
+    return sign_of(p[u] - q[u]) * sign_of(r[u] - q[u]) <= 0 && sign_of(p[w] - q[w]) * sign_of(r[w] - q[w]) <= 0;
+}
+
+/* Projected closed segments p q and r s certainly do not meet: one lies strictly on one side of
+ * the other's line. */
+static int apart(int axis, P p, P q, P r, P s)
+{
+    int a = porient(axis, p, q, r), b = porient(axis, p, q, s);
+    if (a != 0 && a == b)
+        return 1;
+    int c = porient(axis, r, s, p), d = porient(axis, r, s, q);
+    return c != 0 && c == d;
+}
+
+static int compare_segments(const void *x, const void *y)
+{
+    double a = ((const Segment *)x)->lo, b = ((const Segment *)y)->lo;
+    return (a > b) - (a < b);
+}
+
+/* (d): the projected loop loop[0..b) is a simple polygon. */
+static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis, Scratch *sc)
+{
+    int u = axis == 0 ? 1 : 0, w = axis == 2 ? 1 : 2;
+    for (int64_t i = 0; i < b; i++) {
+        P p = V + 3 * loop[i], q = V + 3 * loop[i + 1 == b ? 0 : i + 1], r = V + 3 * loop[(i + 2) % b];
+        if (p[u] == q[u] && p[w] == q[w])
+            return 0;
+        if (!turn_ok(axis, p, q, r, u, w))
+            return 0;
+        sc->segments[i] = (Segment){dmin(p[u], q[u]), dmax(p[u], q[u]), i};
+    }
+    if (b <= 3)
+        return 1;
+    memcpy(sc->sorted, sc->segments, sizeof(Segment) * b);
+    qsort(sc->sorted, b, sizeof(Segment), compare_segments);
+    for (int64_t x = 0; x < b; x++) {
+        const Segment *s = &sc->sorted[x];
+        int64_t i = s->i;
+        P p = V + 3 * loop[i], q = V + 3 * loop[i + 1 == b ? 0 : i + 1];
+        double w0 = dmin(p[w], q[w]), w1 = dmax(p[w], q[w]);
+        for (int64_t y = x + 1; y < b && sc->sorted[y].lo <= s->hi; y++) {
+            int64_t j = sc->sorted[y].i;
+            if (j == (i + 1) % b || i == (j + 1) % b)
+                continue;
+            P r = V + 3 * loop[j], t = V + 3 * loop[j + 1 == b ? 0 : j + 1];
+            if (dmax(r[w], t[w]) < w0 || dmin(r[w], t[w]) > w1)
+                continue;
+            if (!apart(axis, p, q, r, t))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+static inline void face_normal(const Grid *g, uint32_t t, double *n)
+{
+    const int64_t *c = g->corner + 3 * (int64_t)t;
+    P a = g->V + 3 * c[0], b = g->V + 3 * c[1], e = g->V + 3 * c[2];
+    double x[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, y[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
+    n[0] = x[1] * y[2] - x[2] * y[1];
+    n[1] = x[2] * y[0] - x[0] * y[2];
+    n[2] = x[0] * y[1] - x[1] * y[0];
+}
+
+static inline int largest(const double *n)
+{
+    double f[3] = {fabs(n[0]), fabs(n[1]), fabs(n[2])};
+    return f[0] >= f[1] ? (f[0] >= f[2] ? 0 : 2) : (f[1] >= f[2] ? 1 : 2);
+}
+
+/* (a) along `axis` for faces of one shell: the common strict sign of their projections' orient2d,
+ * or 0. */
+static int one_sign(const Grid *g, const uint32_t *list, int64_t k, int axis, int64_t shell)
+{
+    int sign = 0;
+    /* every 16th face first: a cell holding two sheets usually fails there, without the full pass */
+    for (int64_t i = 0; i < k; i += 16) {
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
+        if (o == 0 || (sign != 0 && o != sign))
+            return 0;
+        sign = o;
+    }
+    for (int64_t i = 0; i < k; i++) {
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
+        if (o == 0 || (sign != 0 && o != sign) || g->shell[list[i]] != shell)
+            return 0;
+        sign = o;
+    }
+    return sign;
+}
+
+/* Whether the faces list[0..k) (indices into the grid's faces) are a certified patch. */
+static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k)
+{
+    const Grid *g = pa->g;
+    const Stars *st = pa->stars;
+    const double *V = g->V;
+    if (k <= 1)
+        return 1;
+    int64_t shell = g->shell[list[0]];
+    if (pa->embedded && pa->embedded[shell]) {
+        for (int64_t i = 1; i < k; i++)
+            if (g->shell[list[i]] != shell)
+                return 0;
+        return 1;
+    }
+    /* (a): along the largest component of the first face's normal, else of the summed normals */
+    double n[3];
+    face_normal(g, list[0], n);
+    int axis = largest(n), sign = one_sign(g, list, k, axis, shell);
+    if (sign == 0) {
+        double sum[3] = {0.0, 0.0, 0.0};
+        for (int64_t i = 0; i < k; i++) {
+            face_normal(g, list[i], n);
+            for (int a = 0; a < 3; a++)
+                sum[a] += n[a];
+        }
+        int other = largest(sum);
+        sign = other == axis ? 0 : one_sign(g, list, k, other, shell);
+        axis = other;
+    }
+    if (sign == 0)
+        return 0;
+    for (int64_t i = 0; i < k; i++)
+        set_bit(sc->face_bits, grid_id(g, list[i]));
+    /* (b), counting V and B */
+    int ok = 1, y = axis == 0 ? 1 : 0;
+    int64_t n_vertices = 0, n_boundary = 0, start = -1;
+    const int64_t *F = st->F;
+    for (int64_t i = 0; i < k && ok; i++)
+        for (int c = 0; c < 3 && ok; c++) {
+            int64_t v = g->corner[3 * (int64_t)list[i] + c];
+            if (bit(sc->vertex_bits, v))
+                continue;
+            set_bit(sc->vertex_bits, v);
+            n_vertices++;
+            int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
+            if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
+                ok = 0;
+                break;
+            }
+            P pv = V + 3 * v;
+            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2), first_above = 0, last_above = 0;
+            int64_t upward = 0;
+            for (int64_t j = 0; j < degree; j++) {
+                uint32_t r = st->ring[b + j];
+                int64_t face = r >> 2;
+                int corner = r & 3;
+                int64_t x = F[3 * face + (corner == 2 ? 0 : corner + 1)];
+                int in = bit(sc->face_bits, face);
+                if (in && !last_in) {
+                    runs++;
+                    edge = x;
+                }
+                outside += !in;
+                last_in = in;
+                int above = V[3 * x + y] > pv[y];
+                if (j == 0)
+                    first_above = above;
+                else
+                    upward += !last_above && above;
+                last_above = above;
+            }
+            upward += !last_above && first_above;
+            if (outside == 0)
+                ok = upward == 1;
+            else if (runs == 1) {
+                boundary_add(sc, v, edge, n_boundary++);
+                start = v;
+            } else
+                ok = 0;
+        }
+    /* (c) */
+    if (ok)
+        ok = n_boundary >= 3 && 2 * n_vertices - k - n_boundary == 2;
+    int64_t at = start;
+    for (int64_t i = 0; ok && i < n_boundary; i++) {
+        sc->loop[i] = at;
+        at = boundary_next(sc, at);
+        ok = at >= 0 && (at != start || i == n_boundary - 1);
+    }
+    ok = ok && at == start;
+    /* (d) */
+    if (ok)
+        ok = loop_simple(V, sc->loop, n_boundary, axis, sc);
+    clear(sc, g, list, k, n_boundary);
+    return ok;
+}
+
+static void mark_bad(const Patches *pa, const uint32_t *list, int64_t k)
+{
+    for (int64_t i = 0; i < k; i++)
+        __atomic_store_n(&pa->bad[grid_id(pa->g, list[i])], 1, __ATOMIC_RELAXED);
+}
+
+/* Certify the cell `cell` at `level` holding list[0..k); failing that, its children, down to
+ * PATCH_FINEST; faces of the cells that fail are marked. */
+static void certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k, int level,
+                            const int64_t *cell)
+{
+    if (patch_reserve(sc, k) < 0) {
+        mark_bad(pa, list, k);
+        return;
+    }
+    if (patch(pa, sc, list, k))
+        return;
+    if (level <= PATCH_FINEST || sc->failed) {
+        mark_bad(pa, list, k);
+        return;
+    }
+    const Grid *g = pa->g;
+    int child = level - 1;
+    uint32_t *sub = sc->list[child];
+    uint8_t *octants = sc->octants[child];
+    for (int64_t i = 0; i < k; i++) {
+        int64_t c0[3], c1[3];
+        grid_face_cells(g, list[i], child, c0, c1);
+        unsigned along[3];
+        for (int a = 0; a < 3; a++)
+            along[a] = (c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a]) | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a]) << 1;
+        uint8_t in = 0;
+        for (int octant = 0; octant < 8; octant++)
+            in |= (uint8_t)((along[0] >> (octant & 1) & along[1] >> (octant >> 1 & 1) & along[2] >> (octant >> 2 & 1) & 1)
+                            << octant);
+        octants[i] = in;
+    }
+    for (int octant = 0; octant < 8; octant++) {
+        int64_t at[3] = {2 * cell[0] + (octant & 1), 2 * cell[1] + (octant >> 1 & 1), 2 * cell[2] + (octant >> 2 & 1)};
+        int64_t n = 0;
+        for (int64_t i = 0; i < k; i++)
+            if (octants[i] >> octant & 1)
+                sub[n++] = list[i];
+        if (n)
+            certify_cell(pa, sc, sub, n, child, at);
+    }
+}
+
+static void patch_block(void *ctx, int worker, int64_t block)
+{
+    const Patches *pa = ctx;
+    const Grid *g = pa->g;
+    Scratch *sc = &pa->scratch[worker];
+    int64_t e = pa->cut[block], end = pa->cut[block + 1];
+    while (e < end) {
+        int64_t run = e + 1;
+        while (run < end && g->key[run] == g->key[e])
+            run++;
+        int64_t cell[3];
+        grid_key_cell(g->key[e] & ((1ULL << LEVEL_SHIFT) - 1), cell);
+        certify_cell(pa, sc, g->face + e, run - e, (int)(g->key[e] >> LEVEL_SHIFT), cell);
+        e = run;
+    }
+}
+
+int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
+                 const Stars *stars, int threads, uint8_t *bad)
+{
+    /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
+     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
+    int64_t taken = 0;
+    for (int64_t t = 0; t < m; t++)
+        taken += take[t] != 0;
+    int top = 1;
+    while (top < PATCH_LEVEL && ((int64_t)1024 << (2 * (top + 1))) <= taken)
+        top++;
+    Grid g;
+    int status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
+    if (status != 0 || g.n == 0) {
+        grid_free(&g);
+        return status < 0 ? -1 : 1;
+    }
+    Patches pa;
+    memset(&pa, 0, sizeof(pa));
+    pa.g = &g;
+    pa.stars = stars;
+    pa.embedded = stars->shell_embedded;
+    pa.bad = bad;
+    int64_t want = g.n_entries / PATCH_BLOCK + 1;
+    int workers = threads < 1 ? 1 : threads;
+    pa.cut = malloc(sizeof(int64_t) * (want + 2));
+    pa.scratch = calloc(workers, sizeof(Scratch));
+    status = -1;
+    int ready = pa.scratch != NULL;
+    for (int k = 0; ready && k < workers; k++) {
+        pa.scratch[k].face_bits = calloc((stars->m >> 6) + 1, sizeof(uint64_t));
+        pa.scratch[k].vertex_bits = calloc((stars->n >> 6) + 1, sizeof(uint64_t));
+        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_bits;
+    }
+    if (pa.cut && ready) {
+        int64_t n_cuts = 0, at = 0;
+        pa.cut[n_cuts++] = 0;
+        while (at < g.n_entries && n_cuts <= want) {
+            int64_t next = at + PATCH_BLOCK < g.n_entries ? at + PATCH_BLOCK : g.n_entries;
+            while (next < g.n_entries && g.key[next] == g.key[next - 1])
+                next++;
+            pa.cut[n_cuts++] = next;
+            at = next;
+        }
+        pa.n_blocks = n_cuts - 1;
+        parallel_workers(workers, pa.n_blocks, patch_block, &pa);
+        status = 0;
+        for (int k = 0; k < workers; k++)
+            status = pa.scratch[k].failed ? -1 : status;
+    }
+    for (int k = 0; pa.scratch && k < workers; k++) {
+        scratch_release(&pa.scratch[k]);
+        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
+    }
+    free(pa.cut), free(pa.scratch);
+    grid_free(&g);
+    return status;
+}
