@@ -497,10 +497,10 @@ def _contains(corners, p, i, j):
 class _Corners:
     """Corners of the kept pieces: input vertices by index, intersection points numbered after them."""
 
-    def __init__(self, soup):
+    def __init__(self, soup, before=0):
         self.soup = soup
         self.vertices = {(*q, 1): v for v, q in soup._points.items()}
-        self.count = soup.scaled.shape[0]
+        self.count = soup.scaled.shape[0] + before      # ``before`` new corners are numbered ahead of these
         self.new = {}
 
     def index(self, q):
@@ -535,6 +535,82 @@ class _Corners:
                 np.array(errors, dtype=np.float64).reshape(shape) * unit)
 
 
+# -- the cut in the compiled core ---------------------------------------------------------------
+
+class _Compiled:
+    """The cut stage run by the compiled core (``massprops/core/src/isect/arrange.c``).
+
+    It decides every sign exactly or not at all: a face (or both faces of a
+    pair) whose decisions its certified floating-point filter could not
+    settle is handed back, and cut here by the exact rational path.
+
+    Attributes
+    ----------
+    kind : ndarray, shape (p,), int8
+        Per pair: 0 the faces do not cut each other, 1 a segment, 2 coplanar, -1 handed back.
+    status : ndarray, shape (m,), int8
+        Per face: 0 not cut, 1 cut by the core, 2 handed back.
+    drop : ndarray, shape (m,), int8
+        Per face cut by the core: the axis its projection drops.
+    face, starts, corners : ndarray, int64
+        Cell ``c`` belongs to face ``face[c]``; its corners are
+        ``corners[starts[c]:starts[c + 1]]`` (turning as the face does): input
+        vertices by index, ``n + k`` for ``points[k]``.
+    inside : ndarray, shape (c, 6, 2), float64
+        Points strictly inside each cell, on the axes after ``drop`` (NaN
+        where none was certified): each is the point of the face's plane over
+        these two coordinates, rebuilt exactly by :meth:`inner`.
+    points, rounding : ndarray, shape (q, 3), float64
+        The new corners rounded once, and a certified bound on each coordinate's rounding.
+    """
+
+    def __init__(self, geometry, faces, pairs):
+        from ..core.intersect import _extension, _PARALLEL_ABOVE
+        from ..core.threads import threads_for
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+        kind, status, drop, face, count, corners, inner, points, rounding = _extension().arrange(
+            geometry.vertices, faces, pairs, threads_for(faces.shape[0], _PARALLEL_ABOVE))
+        self.kind = np.frombuffer(kind, dtype=np.int8)
+        self.status = np.frombuffer(status, dtype=np.int8)
+        self.drop = np.frombuffer(drop, dtype=np.int8)
+        self.face = np.frombuffer(face, dtype=np.int64)
+        self.starts = np.concatenate([[0], np.cumsum(np.frombuffer(count, dtype=np.int64))])
+        self.corners = np.frombuffer(corners, dtype=np.int64)
+        self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
+        self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
+        self.rounding = np.frombuffer(rounding, dtype=np.float64).reshape(-1, 3)
+
+    def inner(self, soup, t, cell, attempt, i, j):
+        """Inner point ``attempt`` of cell ``cell`` of face ``t`` (homogeneous integers, w > 0), or None.
+
+        The point of the face's plane over the certified doubles (x, y) on
+        axes i, j: ``n · q = d`` solved for the dropped coordinate, exactly.
+        """
+        x, y = self.inside[cell, attempt].tolist()
+        if x != x or y != y:
+            return None
+        _, normal, offset = soup.plane(t)
+        drop = 3 - i - j
+        # x = a / b, y = c / e with b, e powers of two; on the soup's grid (unit 2**exponent) over one denominator
+        (a, b), (c, e) = x.as_integer_ratio(), y.as_integer_ratio()
+        denominator = max(b, e)
+        a, c = a * (denominator // b), c * (denominator // e)
+        if soup.exponent >= 0:
+            denominator <<= soup.exponent
+        else:
+            a, c = a << -soup.exponent, c << -soup.exponent
+        n_drop = normal[drop]
+        p = [0, 0, 0]
+        p[i], p[j] = a * n_drop, c * n_drop
+        p[drop] = offset * denominator - normal[i] * a - normal[j] * c
+        return _reduced(*p, n_drop * denominator)
+
+    def cell(self, c):
+        """Corner indices of cell ``c``."""
+        return self.corners[self.starts[c]:self.starts[c + 1]].tolist()
+
+
 # -- the arrangement -----------------------------------------------------------------------------
 
 def _ray(normal):
@@ -547,22 +623,27 @@ def _ray(normal):
 _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
-def _label_cells(soup, pieces):
+def _label_cells(soup, pieces, compiled=None):
     """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
 
-    All pieces' rays are counted together (:meth:`_Soup.windings`); a piece
-    whose inner point lies on another face is asked again at another inner
-    point.
+    ``cell`` is a list of homogeneous corners (its inner points are weighted
+    means of three of them), or the number of a cell of ``compiled`` (a
+    :class:`_Compiled`, which gives its cells' inner points).  All pieces' rays are counted together
+    (:meth:`_Soup.windings`); a piece whose inner point lies on another face
+    is asked again at another inner point.
     """
     labels = [None] * len(pieces)
     pending = list(range(len(pieces)))
-    for weights in _TRIES:
+    for attempt, weights in enumerate(_TRIES):
         if not pending:
             break
-        queries, nets = [], []
+        queries, nets, asked = [], [], []
         for k in pending:
             t, cell, normal, partners, i, j = pieces[k]
-            p = _inner_point(cell, weights)
+            p = _inner_point(cell, weights) if isinstance(cell, list) else compiled.inner(soup, t, cell, attempt, i, j)
+            if p is None:
+                continue
+            asked.append(k)
             net, owned = int(soup.weights[t]), True
             for u in partners:
                 corners_u, normal_u, _ = soup.plane(u)
@@ -572,7 +653,7 @@ def _label_cells(soup, pieces):
             queries.append((p, *_ray(normal), normal))
             nets.append((net, owned))
         fronts = soup.windings(queries)
-        for k, front, (net, owned) in zip(pending, fronts, nets):
+        for k, front, (net, owned) in zip(asked, fronts, nets):
             if front is not None:
                 labels[k] = (front, net, owned)
         pending = [k for k in pending if labels[k] is None]
@@ -602,7 +683,7 @@ def _patches(faces, cut):
     return connected_components(graph, directed=False)[1]
 
 
-def arrange(geometry, faces, weights, pairs):
+def arrange(geometry, faces, weights, pairs, *, compiled=True):
     """The faces and cut pieces that bound ``{w > 0}`` (see the module docstring).
 
     Parameters
@@ -615,6 +696,10 @@ def arrange(geometry, faces, weights, pairs):
         How many times each face counts (its copies in the soup), at least 1.
     pairs : ndarray, shape (p, 2), int64
         Every pair of faces that meet beyond what they share.
+    compiled : bool
+        Cut the faces in the compiled core (:class:`_Compiled`), which hands
+        back what its filter cannot decide; False cuts every face with the
+        exact rational path here (the reference).
 
     Returns
     -------
@@ -622,22 +707,44 @@ def arrange(geometry, faces, weights, pairs):
     """
     soup = _Soup(geometry, faces, weights)
     m = faces.shape[0]
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    compiled = _Compiled(geometry, faces, pairs) if compiled else None
+    back = np.ones(m, dtype=bool) if compiled is None else compiled.status == 2
     segments = {}
     partners = {}
-    for t, u in pairs.tolist():
-        segment, coplanar = _crossing(soup, t, u)
-        if coplanar:
+    if compiled is not None:
+        for t, u in pairs[compiled.kind == 2].tolist():
             partners.setdefault(t, []).append(u)
             partners.setdefault(u, []).append(t)
+        exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
+        unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+    else:
+        exact, unsure = pairs, None
+    for t, u in exact.tolist():
+        segment, coplanar = _crossing(soup, t, u)
+        if coplanar:
+            if unsure is None or (t, u) in unsure:
+                partners.setdefault(t, []).append(u)
+                partners.setdefault(u, []).append(t)
             for x, y in ((t, u), (u, t)):
-                corners = soup.plane(y)[0]
-                segments.setdefault(x, []).extend(((*corners[k], 1), (*corners[(k + 1) % 3], 1)) for k in range(3))
+                if back[x]:
+                    corners = soup.plane(y)[0]
+                    segments.setdefault(x, []).extend(((*corners[k], 1), (*corners[(k + 1) % 3], 1))
+                                                      for k in range(3))
         elif segment is not None:
-            segments.setdefault(t, []).append(segment)
-            segments.setdefault(u, []).append(segment)
+            for x in (t, u):
+                if back[x]:
+                    segments.setdefault(x, []).append(segment)
     cut = np.zeros(m, dtype=bool)
     cut[list(segments)] = True
     pieces = []
+    if compiled is not None:
+        cut |= compiled.status == 1
+        drops = compiled.drop.tolist()
+        for c, t in enumerate(compiled.face.tolist()):
+            normal = soup.plane(t)[1]
+            drop = drops[t]
+            pieces.append((t, c, normal, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3))
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -652,18 +759,24 @@ def arrange(geometry, faces, weights, pairs):
         for t in first.values():         # one piece per patch: the whole face, asked at its centroid first
             corners, normal, _ = soup.plane(t)
             pieces.append((t, [(*q, 1) for q in corners], normal, (), 0, 1))
-    kept_corners = _Corners(soup)
+    kept_corners = _Corners(soup, 0 if compiled is None else compiled.points.shape[0])
     triangles = []
     negative = False
     side = {}
-    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces)):
-        back = front + net
-        negative = negative or front < 0 or back < 0
+    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces, compiled)):
+        behind = front + net
+        negative = negative or front < 0 or behind < 0
         t, cell = pieces[k][:2]
         if k >= n_cells:
-            side[int(patch[t])] = 0 if (front > 0) == (back > 0) else (1 if back > 0 else -1)
-        elif owned and (front > 0) != (back > 0):
-            kept_corners.add_polygon(cell, triangles, back > 0)
+            side[int(patch[t])] = 0 if (front > 0) == (behind > 0) else (1 if behind > 0 else -1)
+        elif owned and (front > 0) != (behind > 0):
+            if isinstance(cell, list):
+                kept_corners.add_polygon(cell, triangles, behind > 0)
+            else:
+                ids = compiled.cell(cell)
+                if not behind > 0:
+                    ids.reverse()
+                triangles.extend((ids[0], ids[q], ids[q + 1]) for q in range(1, len(ids) - 1))
     kept = []
     if uncut.size:
         signs = np.array([side[int(label)] for label in patch[uncut]], dtype=np.int64)
@@ -671,4 +784,15 @@ def arrange(geometry, faces, weights, pairs):
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
     pieces = np.array(triangles, dtype=np.int64).reshape(-1, 3)
-    return Arrangement(out, pieces, *kept_corners.points(), negative)
+    points, rounding = kept_corners.points()
+    if compiled is not None:
+        points = np.vstack([compiled.points, points])
+        rounding = np.vstack([compiled.rounding, rounding])
+    # only the new corners the kept pieces use, numbered in order
+    n = soup.scaled.shape[0]
+    used = np.unique(pieces[pieces >= n]) - n
+    renumber = np.full(points.shape[0], -1, dtype=np.int64)
+    renumber[used] = np.arange(used.size) + n
+    new = pieces >= n
+    pieces[new] = renumber[pieces[new] - n]
+    return Arrangement(out, pieces, points[used], rounding[used], negative)

@@ -146,4 +146,24 @@ enum { RAY_OK = 0, RAY_DEGENERATE = 1, RAY_ON_SURFACE = 2, RAY_MEMORY = 3 };
 int winding_numbers(const double *V, const int64_t *F, int64_t m, const double *points, int64_t k, int64_t *out,
                     int64_t *bad);
 
+/* ---- arrange.c: the arrangement's cut stage --------------------------------------------- */
+
+/* Cells of the faces cut by their pairs' segments (see arrange.c). */
+typedef struct {
+    char *data;
+    size_t size, capacity;
+} Buf;
+
+typedef struct {
+    Buf face, count, corners, inner, points, errors;   /* int64, int64, int64, 12 double, 3, 3 per item */
+    int64_t n_cells, n_points;
+} Arranged;
+
+/* kind (per pair): 0 the faces do not cut each other, 1 a segment, 2 coplanar, -1 unsure (both faces
+ * are handed back); status (per face): 0 not cut, 1 cut here, 2 handed back; drop (per face cut
+ * here): the axis its projection drops.  0, or -1 when memory ran out. */
+int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *pairs, int64_t p, int threads,
+                int8_t *kind, int8_t *status, int8_t *drop, Arranged *result);
+void arranged_free(Arranged *a);
+
 #endif

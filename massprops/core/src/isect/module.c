@@ -6,6 +6,7 @@
  *   certificates(V, F, shell, ...)   which stars and shells are certified embedded (stars.c)
  *   winding(V, F, points)            winding numbers of points off the surface (winding.c)
  *   orient3d_signs(P)                a batch of the predicate
+ *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -286,6 +287,60 @@ static PyObject *py_orient3d_signs(PyObject *self, PyObject *args)
     return out;
 }
 
+/* ---- the arrangement's cut stage ------------------------------------------------------------- */
+
+static PyObject *buf_bytes(Buf *b) { return PyBytes_FromStringAndSize(b->data ? b->data : "", (Py_ssize_t)b->size); }
+
+static PyObject *py_arrange(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *po;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOi", &vo, &fo, &po, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, pb;
+    if (get_three(vo, fo, po, &vb, &fb, &pb, 16, 0, "pairs") < 0)
+        return NULL;
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24, p = pb.len / 16;
+    PyObject *kind = PyBytes_FromStringAndSize(NULL, p), *status = PyBytes_FromStringAndSize(NULL, m);
+    PyObject *drop = PyBytes_FromStringAndSize(NULL, m), *result = NULL;
+    const char *bad = NULL;
+    int code = 0;
+    Arranged out;
+    memset(&out, 0, sizeof(out));
+    if (kind && status && drop) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *pairs = pb.buf;
+        for (Py_ssize_t k = 0; k < 2 * p && !bad; k++)
+            if (pairs[k] < 0 || pairs[k] >= m)
+                bad = "a pair names a face that does not exist";
+        if (!bad)
+            code = arrange_cut(vb.buf, fb.buf, n, m, pairs, p, threads, (int8_t *)PyBytes_AS_STRING(kind),
+                               (int8_t *)PyBytes_AS_STRING(status), (int8_t *)PyBytes_AS_STRING(drop), &out);
+        Py_END_ALLOW_THREADS
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else if (code < 0)
+            PyErr_NoMemory();
+        else
+        {
+            result = Py_BuildValue("NNNNNNNNN", kind, status, drop, buf_bytes(&out.face), buf_bytes(&out.count),
+                                   buf_bytes(&out.corners), buf_bytes(&out.inner), buf_bytes(&out.points),
+                                   buf_bytes(&out.errors));
+            kind = status = drop = NULL;          /* taken by Py_BuildValue, also when it fails */
+        }
+    }
+    if (!result) {
+        Py_XDECREF(kind);
+        Py_XDECREF(status);
+        Py_XDECREF(drop);
+    }
+    arranged_free(&out);
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&pb);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -298,6 +353,10 @@ static PyMethodDef methods[] = {
      "per shell: shell certified embedded), bytes of 0/1"},
     {"winding", py_winding, METH_VARARGS, "winding(vertices, faces, points) -> int64 winding numbers (bytes)"},
     {"orient3d_signs", py_orient3d_signs, METH_VARARGS, "orient3d_signs(points (k, 4, 3)) -> int8 signs (bytes)"},
+    {"arrange", py_arrange, METH_VARARGS,
+     "arrange(vertices, faces, pairs (p, 2), threads) -> (kind int8 per pair, status int8 per face, drop int8 per\n"
+     "face, cell faces int64, corner counts int64, corners int64, inner points (c, 6, 2) float64, new points (q, 3),\n"
+     "their errors (q, 3)) (bytes): the arrangement's cut stage (arrange.c)"},
     {NULL, NULL, 0, NULL},
 };
 

@@ -1,0 +1,1080 @@
+/* The cut stage of the arrangement (massprops/mesh/arrangement.py), in C.
+ *
+ * For every pair of faces that meet, the segment where they meet (as `_crossing`); for every
+ * face with segments, its convex cells (as `_cells` / `_split`: each segment cuts, along its
+ * whole line, the cells it enters).  Intersection points are never rounded for a decision:
+ * they stay implicit, as in Cherchi et al. 2020 ("Fast and robust mesh arrangements using
+ * floating-point arithmetic"):
+ *
+ *   LPI(P, Q, g)    the line through input vertices P, Q with the plane of face g;
+ *   EE(P, Q, R, S)  two lines through input vertices, in the plane of the face being cut;
+ *   TPI(t, g, h)    the planes of three faces;
+ *   PROJ(x, y)      the point of the cut face's plane over (x, y) (its projection's axes).
+ *
+ * In the face being cut, every line is the line through two input vertices (E) or the plane of
+ * another face (U), kept once per face (lines equal exactly are one).  Every decision is the sign
+ * of a point against a line.  Input vertices are decided exactly (orient2d, orient3d of
+ * predicates.h); a point built on a line is on it (symbolically); an LPI against a plane is
+ * decided from the exact sides of P and Q where these settle it; everything else is a
+ * floating-point evaluation carrying a certified absolute error bound (type `fx`).  When a sign
+ * is not certain, the face (or both faces of a pair) is handed back: the caller cuts it with its
+ * exact rational path.  So every cell returned is the one the exact path would find.
+ *
+ * Cells are returned with their corners (input vertices by index, new points rounded once with
+ * a certified bound on each coordinate's error) and, for the labels, points strictly inside:
+ * PROJ points over double (x, y), certified inside every edge, which the caller rebuilds
+ * exactly in rationals.
+ */
+#include "isect.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- numbers with a certified absolute error ------------------------------------------------ */
+
+/* v approximates the exact value within e.  Each operation adds its rounding (|result| u), the
+ * propagated errors and 2**-1000 (which covers underflow); the bound's own rounding (at most a
+ * few relative u over a few operations) is covered by the factor 1 + 16u. */
+typedef struct {
+    double v, e;
+} fx;
+
+#define FX_GROW (1.0 + 0x1p-49)
+#define FX_TINY 0x1p-1000
+
+static inline fx fx_c(double x)
+{
+    fx r = {x, 0.0};
+    return r;
+}
+
+static inline fx fx_add(fx a, fx b)
+{
+    double s = a.v + b.v;
+    fx r = {s, (a.e + b.e + fabs(s) * EPS) * FX_GROW + FX_TINY};
+    return r;
+}
+
+static inline fx fx_sub(fx a, fx b)
+{
+    double s = a.v - b.v;
+    fx r = {s, (a.e + b.e + fabs(s) * EPS) * FX_GROW + FX_TINY};
+    return r;
+}
+
+static inline fx fx_mul(fx a, fx b)
+{
+    double p = a.v * b.v;
+    fx r = {p, (fabs(a.v) * b.e + fabs(b.v) * a.e + a.e * b.e + fabs(p) * EPS) * FX_GROW + FX_TINY};
+    return r;
+}
+
+static inline fx fx_neg(fx a)
+{
+    a.v = -a.v;
+    return a;
+}
+
+/* The exact value's sign, or 0 when the bound does not settle it (also for NaN and infinities). */
+static inline int fx_sign(fx a) { return a.v > a.e ? 1 : (-a.v > a.e ? -1 : 0); }
+
+static inline fx fx_diff(double a, double b) { return fx_sub(fx_c(a), fx_c(b)); }
+
+/* ---- the shared input ----------------------------------------------------------------------- */
+
+typedef struct {
+    int8_t kind;              /* 0: vertex a; 1: LPI(a, b, plane of g) */
+    int64_t a, b, g;
+} End;
+
+enum { PAIR_NONE = 0, PAIR_SEGMENT = 1, PAIR_COPLANAR = 2, PAIR_UNSURE = -1 };
+
+typedef struct {
+    const double *V;
+    const int64_t *F;
+    int64_t n, m, p;
+    const int64_t *pairs;     /* 2 per pair */
+    fx *normal;               /* 3 per face: (b - a) x (c - a) */
+    int8_t *kind;             /* per pair */
+    End *ends;                /* 2 per pair: the segment's ends */
+    int64_t *begin, *list;    /* faces' pairs (CSR, in pair order) */
+    int8_t *status;           /* per face: 0 not cut, 1 cut here, 2 handed back */
+    int8_t *drop;             /* per face: the axis its projection drops */
+} Shared;
+
+static inline const double *vx(const Shared *s, int64_t v) { return s->V + 3 * v; }
+static inline const double *corner(const Shared *s, int64_t f, int k) { return s->V + 3 * s->F[3 * f + k]; }
+
+/* Exact side of an input point against the plane of face f: the sign of n_f . (x - a_f). */
+static inline int plane_side(const Shared *s, int64_t f, const double *x)
+{
+    return -orient3d(corner(s, f, 0), corner(s, f, 1), corner(s, f, 2), x);
+}
+
+/* n_f . (x - a_f), certified. */
+static fx plane_level(const Shared *s, int64_t f, const double *x)
+{
+    const fx *n = s->normal + 3 * f;
+    const double *a = corner(s, f, 0);
+    fx r = fx_mul(n[0], fx_diff(x[0], a[0]));
+    r = fx_add(r, fx_mul(n[1], fx_diff(x[1], a[1])));
+    return fx_add(r, fx_mul(n[2], fx_diff(x[2], a[2])));
+}
+
+static void face_normal(const Shared *s, int64_t f)
+{
+    const double *a = corner(s, f, 0), *b = corner(s, f, 1), *c = corner(s, f, 2);
+    fx u[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = fx_diff(b[k], a[k]);
+        w[k] = fx_diff(c[k], a[k]);
+    }
+    fx *n = s->normal + 3 * f;
+    n[0] = fx_sub(fx_mul(u[1], w[2]), fx_mul(u[2], w[1]));
+    n[1] = fx_sub(fx_mul(u[2], w[0]), fx_mul(u[0], w[2]));
+    n[2] = fx_sub(fx_mul(u[0], w[1]), fx_mul(u[1], w[0]));
+}
+
+/* ---- points ---------------------------------------------------------------------------------- */
+
+enum { PT_V, PT_LPI, PT_EE, PT_TPI, PT_PROJ };
+
+typedef struct {
+    int8_t kind;
+    int8_t flip;              /* W was negated to make it positive */
+    int8_t sg[2];             /* LPI: exact sides of a, b against plane g */
+    int l1, l2;               /* lines of the face it is known to lie on (-1: none) */
+    int64_t a, b, c, d;       /* V: a; LPI: a, b, plane g = c; EE: a, b, c, d; TPI: faces a, b, c */
+    fx s[2];                  /* LPI: levels of a, b against plane g */
+    fx X[3], W;               /* homogeneous, W > 0 certified (not for V) */
+    int64_t out;              /* index among the points returned, -1 until it is */
+} Pt;
+
+/* Make W positive; 0 when its sign is not certain. */
+static int normalise(Pt *p)
+{
+    int sw = fx_sign(p->W);
+    if (sw == 0)
+        return 0;
+    p->flip = sw < 0;
+    if (sw < 0) {
+        p->W = fx_neg(p->W);
+        for (int k = 0; k < 3; k++)
+            p->X[k] = fx_neg(p->X[k]);
+    }
+    return 1;
+}
+
+static void make_vertex(Pt *p, int64_t v, int l1, int l2)
+{
+    memset(p, 0, sizeof(*p));
+    p->kind = PT_V;
+    p->a = v;
+    p->l1 = l1, p->l2 = l2;
+    p->out = -1;
+}
+
+/* The line through P, Q with the plane of g: X = P W + sP (Q - P), W = sP - sQ. */
+static int make_lpi(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t g, int l1, int l2)
+{
+    memset(p, 0, sizeof(*p));
+    p->kind = PT_LPI;
+    p->a = P, p->b = Q, p->c = g;
+    p->l1 = l1, p->l2 = l2;
+    p->out = -1;
+    const double *x = vx(s, P), *y = vx(s, Q);
+    p->sg[0] = (int8_t)plane_side(s, g, x);
+    p->sg[1] = (int8_t)plane_side(s, g, y);
+    if (p->sg[0] == p->sg[1])
+        return 0;             /* parallel to the plane, or not known to cross it: decided elsewhere */
+    p->s[0] = plane_level(s, g, x);
+    p->s[1] = plane_level(s, g, y);
+    p->W = fx_sub(p->s[0], p->s[1]);
+    for (int k = 0; k < 3; k++)
+        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), fx_mul(p->s[0], fx_diff(y[k], x[k])));
+    return normalise(p);
+}
+
+/* Lines PQ and RS of one plane, met in the projection on axes i, j. */
+static int make_ee(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t R, int64_t S, int i, int j, int l1, int l2)
+{
+    memset(p, 0, sizeof(*p));
+    p->kind = PT_EE;
+    p->a = P, p->b = Q, p->c = R, p->d = S;
+    p->l1 = l1, p->l2 = l2;
+    p->out = -1;
+    const double *x = vx(s, P), *y = vx(s, Q), *r = vx(s, R), *q = vx(s, S);
+    fx di = fx_diff(y[i], x[i]), dj = fx_diff(y[j], x[j]);
+    fx ei = fx_diff(q[i], r[i]), ej = fx_diff(q[j], r[j]);
+    fx ri = fx_diff(r[i], x[i]), rj = fx_diff(r[j], x[j]);
+    p->W = fx_sub(fx_mul(di, ej), fx_mul(dj, ei));
+    fx num = fx_sub(fx_mul(ri, ej), fx_mul(rj, ei));
+    for (int k = 0; k < 3; k++)
+        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), fx_mul(num, fx_diff(y[k], x[k])));
+    return normalise(p);
+}
+
+static void fx_cross(const fx *u, const fx *w, fx *out)
+{
+    out[0] = fx_sub(fx_mul(u[1], w[2]), fx_mul(u[2], w[1]));
+    out[1] = fx_sub(fx_mul(u[2], w[0]), fx_mul(u[0], w[2]));
+    out[2] = fx_sub(fx_mul(u[0], w[1]), fx_mul(u[1], w[0]));
+}
+
+static fx fx_dot(const fx *u, const fx *w)
+{
+    return fx_add(fx_add(fx_mul(u[0], w[0]), fx_mul(u[1], w[1])), fx_mul(u[2], w[2]));
+}
+
+/* The planes of faces f, g, h, about the origin a_f (so the offsets are small where the faces are). */
+static int make_tpi(const Shared *s, Pt *p, int64_t f, int64_t g, int64_t h, int l1, int l2)
+{
+    memset(p, 0, sizeof(*p));
+    p->kind = PT_TPI;
+    p->a = f, p->b = g, p->c = h;
+    p->l1 = l1, p->l2 = l2;
+    p->out = -1;
+    const double *o = corner(s, f, 0);
+    const fx *n1 = s->normal + 3 * f, *n2 = s->normal + 3 * g, *n3 = s->normal + 3 * h;
+    fx d2 = plane_level(s, g, o), d3 = plane_level(s, h, o);
+    /* planes n . (x - o) = -level(o) for g, h, and 0 for f */
+    d2 = fx_neg(d2), d3 = fx_neg(d3);
+    fx c23[3], c31[3], c12[3];
+    fx_cross(n2, n3, c23);
+    fx_cross(n3, n1, c31);
+    fx_cross(n1, n2, c12);
+    p->W = fx_dot(n1, c23);
+    for (int k = 0; k < 3; k++)
+        p->X[k] = fx_add(fx_mul(fx_c(o[k]), p->W), fx_add(fx_mul(d2, c31[k]), fx_mul(d3, c12[k])));
+    return normalise(p);
+}
+
+/* The point of face f's plane over (x, y) on axes i, j (dropping axis `drop`). */
+static int make_proj(const Shared *s, Pt *p, int64_t f, int drop, int i, int j, double x, double y)
+{
+    memset(p, 0, sizeof(*p));
+    p->kind = PT_PROJ;
+    p->l1 = p->l2 = -1;
+    p->out = -1;
+    const fx *n = s->normal + 3 * f;
+    const double *a = corner(s, f, 0);
+    p->W = n[drop];
+    p->X[i] = fx_mul(fx_c(x), n[drop]);
+    p->X[j] = fx_mul(fx_c(y), n[drop]);
+    /* n . (q - a) = 0: n_d q_d = n_d a_d - n_i (x - a_i) - n_j (y - a_j) */
+    p->X[drop] = fx_sub(fx_sub(fx_mul(n[drop], fx_c(a[drop])), fx_mul(n[i], fx_diff(x, a[i]))),
+                        fx_mul(n[j], fx_diff(y, a[j])));
+    return normalise(p);
+}
+
+/* ---- lines of one face ------------------------------------------------------------------------ */
+
+enum { LN_E, LN_U };
+
+typedef struct {
+    int8_t kind;
+    int64_t a, b;             /* E: vertices; U: face a */
+} Ln;
+
+typedef struct {
+    const Shared *s;
+    int64_t t;
+    int drop, i, j;
+    int fail;
+    Pt *pts;
+    int n_pts, cap_pts;
+    Ln *lns;
+    int n_lns, cap_lns;
+    /* corners of every cell made: pt, ln, in in parallel pools */
+    int *c_pt, *c_ln;
+    int8_t *c_in;
+    int n_c, cap_c;
+} Face;
+
+static int face_reserve(void **data, int *cap, int want, size_t item)
+{
+    if (want <= *cap)
+        return 0;
+    int grown = *cap ? *cap : 16;
+    while (grown < want)
+        grown *= 2;
+    void *p = realloc(*data, item * (size_t)grown);
+    if (!p)
+        return -1;
+    *data = p;
+    *cap = grown;
+    return 0;
+}
+
+static int new_pt(Face *c)
+{
+    if (face_reserve((void **)&c->pts, &c->cap_pts, c->n_pts + 1, sizeof(Pt)) < 0) {
+        c->fail = 2;
+        return -1;
+    }
+    return c->n_pts++;
+}
+
+/* Side of an input point against a line of the face: exact. */
+static int vertex_side(const Face *c, const Ln *l, const double *x)
+{
+    const Shared *s = c->s;
+    if (l->kind == LN_U)
+        return plane_side(s, l->a, x);
+    const double *p = vx(s, l->a), *q = vx(s, l->b);
+    return orient2d(p[c->i], p[c->j], q[c->i], q[c->j], x[c->i], x[c->j]);
+}
+
+/* Side of point p against line li: -1, 0, 1; an unsure sign sets c->fail and gives 0. */
+static int side(Face *c, const Pt *p, int li)
+{
+    if (p->l1 == li || p->l2 == li)
+        return 0;
+    const Shared *s = c->s;
+    const Ln *l = c->lns + li;
+    if (p->kind == PT_V)
+        return vertex_side(c, l, vx(s, p->a));
+    if (p->kind == PT_LPI && l->kind == LN_U) {
+        /* level_h(X) = (sP hQ - sQ hP) / (sP - sQ) */
+        const double *x = vx(s, p->a), *y = vx(s, p->b);
+        int hp = plane_side(s, l->a, x), hq = plane_side(s, l->a, y);
+        int t1 = p->sg[0] * hq, t2 = -p->sg[1] * hp, num;
+        if (t1 == 0 || t2 == 0 || t1 == t2)
+            num = t1 ? t1 : t2;
+        else {
+            fx value = fx_sub(fx_mul(p->s[0], plane_level(s, l->a, y)), fx_mul(p->s[1], plane_level(s, l->a, x)));
+            num = fx_sign(value);
+            if (num == 0) {
+                c->fail = 1;
+                return 0;
+            }
+        }
+        return p->flip ? -num : num;
+    }
+    fx value;
+    if (l->kind == LN_U) {
+        const fx *n = s->normal + 3 * l->a;
+        const double *o = corner(s, l->a, 0);
+        value = fx_c(0.0);
+        for (int k = 0; k < 3; k++)
+            value = fx_add(value, fx_mul(n[k], fx_sub(p->X[k], fx_mul(fx_c(o[k]), p->W))));
+    } else {
+        const double *a = vx(s, l->a), *b = vx(s, l->b);
+        int i = c->i, j = c->j;
+        fx xi = fx_sub(p->X[i], fx_mul(fx_c(a[i]), p->W)), xj = fx_sub(p->X[j], fx_mul(fx_c(a[j]), p->W));
+        value = fx_sub(fx_mul(fx_diff(b[i], a[i]), xj), fx_mul(fx_diff(b[j], a[j]), xi));
+    }
+    int sign = fx_sign(value);
+    if (sign == 0)
+        c->fail = 1;
+    return sign;
+}
+
+/* Whether two lines of the face are the same line (exact: both are defined by input points). */
+static int same_line(const Face *c, const Ln *x, const Ln *y)
+{
+    const Shared *s = c->s;
+    if (x->kind == LN_E)
+        return vertex_side(c, y, vx(s, x->a)) == 0 && vertex_side(c, y, vx(s, x->b)) == 0;
+    if (y->kind == LN_E)
+        return vertex_side(c, x, vx(s, y->a)) == 0 && vertex_side(c, x, vx(s, y->b)) == 0;
+    /* two planes meeting this face's plane: the same plane */
+    for (int k = 0; k < 3; k++)
+        if (plane_side(s, y->a, corner(s, x->a, k)) != 0)
+            return 0;
+    return 1;
+}
+
+/* The face's line equal to `l`, added when new. */
+static int line_of(Face *c, int8_t kind, int64_t a, int64_t b)
+{
+    Ln l = {kind, a, b};
+    for (int k = 0; k < c->n_lns; k++) {
+        const Ln *o = c->lns + k;
+        if (o->kind == kind && o->a == a && o->b == b)
+            return k;
+    }
+    for (int k = 0; k < c->n_lns; k++)
+        if (same_line(c, c->lns + k, &l))
+            return k;
+    if (face_reserve((void **)&c->lns, &c->cap_lns, c->n_lns + 1, sizeof(Ln)) < 0) {
+        c->fail = 2;
+        return -1;
+    }
+    c->lns[c->n_lns] = l;
+    return c->n_lns++;
+}
+
+/* The point where lines la and lb of the face meet. */
+static int meet(Face *c, int la, int lb)
+{
+    int k = new_pt(c);
+    if (k < 0)
+        return -1;
+    const Ln *x = c->lns + la, *y = c->lns + lb;
+    Pt *p = c->pts + k;
+    int ok;
+    if (x->kind == LN_E && y->kind == LN_U)
+        ok = make_lpi(c->s, p, x->a, x->b, y->a, la, lb);
+    else if (x->kind == LN_U && y->kind == LN_E)
+        ok = make_lpi(c->s, p, y->a, y->b, x->a, la, lb);
+    else if (x->kind == LN_E)
+        ok = make_ee(c->s, p, x->a, x->b, y->a, y->b, c->i, c->j, la, lb);
+    else
+        ok = make_tpi(c->s, p, c->t, x->a, y->a, la, lb);
+    if (!ok) {
+        c->fail = 1;
+        return -1;
+    }
+    return k;
+}
+
+/* ---- cutting a face ---------------------------------------------------------------------------- */
+
+/* Append one corner to the pools. */
+static int push_corner(Face *c, int pt, int ln, int8_t in)
+{
+    if (c->n_c == c->cap_c) {
+        int cap = c->cap_c ? 2 * c->cap_c : 64;
+        int *a = realloc(c->c_pt, sizeof(int) * cap), *b = a ? realloc(c->c_ln, sizeof(int) * cap) : NULL;
+        int8_t *d = b ? realloc(c->c_in, cap) : NULL;
+        if (a)
+            c->c_pt = a;
+        if (b)
+            c->c_ln = b;
+        if (!d) {
+            c->fail = 2;
+            return -1;
+        }
+        c->c_in = d;
+        c->cap_c = cap;
+    }
+    c->c_pt[c->n_c] = pt, c->c_ln[c->n_c] = ln, c->c_in[c->n_c] = in;
+    return c->n_c++;
+}
+
+/* A cell: corners [start, start + n) of the pools (offsets: the pools move when they grow).  Edge k
+ * (corner k to k + 1) lies on line c_ln[k]; the cell's interior is on side c_in[k] of it. */
+typedef struct {
+    int start, n;
+} CellRef;
+
+typedef struct {
+    int line, e1, e2;         /* the segment: its line and its two ends (points of the face) */
+} Segment;
+
+/* Cut cell `cell` by segment `g` where the segment enters it: 0 (not cut), 1 (cut: two halves
+ * appended to out), or -1 (a sign was unsure, or memory ran out). */
+static int split(Face *c, CellRef cell, const Segment *g, CellRef *out)
+{
+    enum { SMALL = 64 };
+    int values_small[SMALL], *values = cell.n <= SMALL ? values_small : malloc(sizeof(int) * cell.n);
+    if (!values) {
+        c->fail = 2;
+        return -1;
+    }
+    int positive = 0, negative = 0, result = 0;
+    for (int k = 0; k < cell.n; k++) {
+        values[k] = side(c, c->pts + c->c_pt[cell.start + k], g->line);
+        if (c->fail)
+            goto done;
+        positive |= values[k] > 0;
+        negative |= values[k] < 0;
+    }
+    if (!(positive && negative))
+        goto done;
+    for (int k = 0; k < cell.n; k++) {
+        int line = c->c_ln[cell.start + k], in = c->c_in[cell.start + k];
+        int s1 = side(c, c->pts + g->e1, line);
+        if (c->fail)
+            goto done;
+        if (in * s1 > 0)
+            continue;
+        int s2 = side(c, c->pts + g->e2, line);
+        if (c->fail)
+            goto done;
+        if (in * s2 <= 0)
+            goto done;        /* the segment stays outside this edge: it misses the cell */
+    }
+    /* the crossing points, one per edge whose ends are strictly on both sides */
+    int cross_small[SMALL], *cross = cell.n <= SMALL ? cross_small : malloc(sizeof(int) * cell.n);
+    if (!cross) {
+        c->fail = 2;
+        result = -1;
+        goto done;
+    }
+    for (int k = 0; k < cell.n; k++) {
+        int next = (k + 1) % cell.n;
+        cross[k] = -1;
+        if ((long)values[k] * values[next] < 0) {
+            cross[k] = meet(c, c->c_ln[cell.start + k], g->line);
+            if (cross[k] < 0)
+                break;
+        }
+    }
+    if (!c->fail)
+        for (int half = 0; half < 2 && !c->fail; half++) {
+            int sg = half == 0 ? 1 : -1;
+            int start = c->n_c;
+            for (int k = 0; k < cell.n && !c->fail; k++) {
+                int next = (k + 1) % cell.n;
+                int line = c->c_ln[cell.start + k], in = c->c_in[cell.start + k];
+                int pt = c->c_pt[cell.start + k];
+                if (values[k] * sg >= 0) {
+                    if (values[k] == 0 && values[next] * sg < 0)
+                        push_corner(c, pt, g->line, (int8_t)sg);
+                    else
+                        push_corner(c, pt, line, (int8_t)in);
+                }
+                if (cross[k] >= 0) {
+                    if (values[k] * sg > 0)
+                        push_corner(c, cross[k], g->line, (int8_t)sg);
+                    else
+                        push_corner(c, cross[k], line, (int8_t)in);
+                }
+            }
+            out[half].start = start;
+            out[half].n = c->n_c - start;
+        }
+    if (cross != cross_small)
+        free(cross);
+    result = c->fail ? -1 : 1;
+done:
+    if (values != values_small)
+        free(values);
+    if (c->fail)
+        result = -1;
+    return result;
+}
+
+/* ---- output of one block of faces --------------------------------------------------------------- */
+
+typedef Arranged Out;
+
+static void buf_free(Buf *b)
+{
+    free(b->data);
+    b->data = NULL;
+    b->size = b->capacity = 0;
+}
+
+static int out_push(Buf *g, const void *item, size_t bytes)
+{
+    if (g->size + bytes > g->capacity) {
+        size_t cap = g->capacity ? g->capacity : 256;
+        while (cap < g->size + bytes)
+            cap *= 2;
+        char *data = realloc(g->data, cap);
+        if (!data)
+            return -1;
+        g->data = data;
+        g->capacity = cap;
+    }
+    memcpy(g->data + g->size, item, bytes);
+    g->size += bytes;
+    return 0;
+}
+
+#define N_INNER 6
+
+/* The corner's index among the returned points (input vertices: their own index). */
+static int64_t corner_out(Face *c, Out *o, int k)
+{
+    Pt *p = c->pts + k;
+    if (p->kind == PT_V)
+        return p->a;
+    if (p->out >= 0)
+        return c->s->n + p->out;
+    double q[3], err[3];
+    double low = (p->W.v - p->W.e) * (1.0 - 4 * EPS);
+    if (!(low > 0.0))
+        return -1;
+    for (int d = 0; d < 3; d++) {
+        q[d] = p->X[d].v / p->W.v;
+        /* |X/W - Xv/Wv| <= (eX + |Xv/Wv| eW) / (Wv - eW), and |Xv/Wv - q| <= u |q| */
+        double a = fabs(q[d]) * (1.0 + 4 * EPS);
+        err[d] = ((p->X[d].e + a * p->W.e) / low + a * EPS) * (1.0 + 0x1p-40) + FX_TINY;
+        if (!isfinite(q[d]) || !isfinite(err[d]))
+            return -1;
+    }
+    if (out_push(&o->points, q, sizeof q) < 0 || out_push(&o->errors, err, sizeof err) < 0)
+        return -1;
+    p->out = o->n_points++;
+    return c->s->n + p->out;
+}
+
+static const double TRIES[N_INNER][3] = {{1, 1, 1}, {1, 2, 3}, {3, 1, 2}, {2, 3, 1}, {1, 3, 7}, {5, 1, 2}};
+
+/* Approximate projected coordinates of a point of the face. */
+static void approx(const Face *c, const Pt *p, double *x, double *y)
+{
+    if (p->kind == PT_V) {
+        const double *q = vx(c->s, p->a);
+        *x = q[c->i], *y = q[c->j];
+    } else {
+        *x = p->X[c->i].v / p->W.v;
+        *y = p->X[c->j].v / p->W.v;
+    }
+}
+
+/* Points strictly inside the cell (NaN where one could not be certified); 0 when the first could not. */
+static int inner_points(Face *c, CellRef cell, double *inner)
+{
+    double ax[3], ay[3], cx = 0.0, cy = 0.0;
+    for (int k = 0; k < cell.n; k++) {
+        double x, y;
+        approx(c, c->pts + c->c_pt[cell.start + k], &x, &y);
+        if (k < 3)
+            ax[k] = x, ay[k] = y;
+        cx += x, cy += y;
+    }
+    for (int t = 0; t < N_INNER; t++) {
+        double x, y;
+        if (t == 0)
+            x = cx / cell.n, y = cy / cell.n;
+        else {
+            const double *w = TRIES[t];
+            double total = w[0] + w[1] + w[2];
+            x = (w[0] * ax[0] + w[1] * ax[1] + w[2] * ax[2]) / total;
+            y = (w[0] * ay[0] + w[1] * ay[1] + w[2] * ay[2]) / total;
+        }
+        Pt q;
+        int inside = isfinite(x) && isfinite(y) && make_proj(c->s, &q, c->t, c->drop, c->i, c->j, x, y);
+        for (int k = 0; k < cell.n && inside; k++) {
+            int s = side(c, &q, c->c_ln[cell.start + k]);
+            inside = !c->fail && s * c->c_in[cell.start + k] > 0;
+            c->fail = 0;
+        }
+        inner[2 * t] = inside ? x : NAN;
+        inner[2 * t + 1] = inside ? y : NAN;
+        if (t == 0 && !inside)
+            return 0;
+    }
+    return 1;
+}
+
+/* ---- one face ----------------------------------------------------------------------------------- */
+
+/* The segment of pair `pair` as seen from face t, appended to segs; -1 on failure. */
+static int add_pair_segments(Face *c, int64_t pair, Segment **segs, int *n_segs, int *cap_segs)
+{
+    const Shared *s = c->s;
+    int64_t t = c->t, u = s->pairs[2 * pair] == t ? s->pairs[2 * pair + 1] : s->pairs[2 * pair];
+    if (s->kind[pair] == PAIR_COPLANAR) {
+        for (int k = 0; k < 3; k++) {
+            int64_t R = s->F[3 * u + k], S = s->F[3 * u + (k + 1) % 3];
+            int line = line_of(c, LN_E, R, S);
+            int e1 = new_pt(c);
+            if (e1 >= 0)
+                make_vertex(c->pts + e1, R, -1, -1);
+            int e2 = new_pt(c);
+            if (e2 >= 0)
+                make_vertex(c->pts + e2, S, -1, -1);
+            if (line < 0 || e1 < 0 || e2 < 0)
+                return -1;
+            if (face_reserve((void **)segs, cap_segs, *n_segs + 1, sizeof(Segment)) < 0) {
+                c->fail = 2;
+                return -1;
+            }
+            Segment g = {line, e1, e2};
+            (*segs)[(*n_segs)++] = g;
+        }
+        return 0;
+    }
+    if (s->kind[pair] != PAIR_SEGMENT)
+        return 0;                          /* the faces only touch: nothing cuts */
+    int line = line_of(c, LN_U, u, 0);
+    if (line < 0)
+        return -1;
+    int ends[2];
+    for (int k = 0; k < 2; k++) {
+        const End *e = s->ends + 2 * pair + k;
+        int p = new_pt(c);
+        if (p < 0)
+            return -1;
+        if (e->kind == 0)
+            make_vertex(c->pts + p, e->a, -1, -1);
+        else if (e->g == t) {
+            if (!make_lpi(s, c->pts + p, e->a, e->b, t, line, -1)) {
+                c->fail = 1;
+                return -1;
+            }
+        } else {
+            int edge = line_of(c, LN_E, e->a, e->b);
+            if (edge < 0)
+                return -1;
+            if (!make_lpi(s, c->pts + p, e->a, e->b, u, edge, line)) {
+                c->fail = 1;
+                return -1;
+            }
+        }
+        ends[k] = p;
+    }
+    if (face_reserve((void **)segs, cap_segs, *n_segs + 1, sizeof(Segment)) < 0) {
+        c->fail = 2;
+        return -1;
+    }
+    Segment g = {line, ends[0], ends[1]};
+    (*segs)[(*n_segs)++] = g;
+    return 0;
+}
+
+/* Cut face t; its cells are appended to o (1), or o is left as it was (0: hand it back; -1: memory). */
+static int cut_face(Face *c, Out *o, int64_t t, Segment **segs_p, int *cap_segs, CellRef **cells_p,
+                    CellRef **next_p, int *cap_cells)
+{
+    const Shared *s = c->s;
+    c->t = t;
+    c->fail = 0;
+    c->n_pts = c->n_lns = c->n_c = 0;
+    int drop = triangle_axis(corner(s, t, 0), corner(s, t, 1), corner(s, t, 2));
+    if (drop < 0)
+        return 0;
+    c->drop = drop;
+    c->i = (drop + 1) % 3, c->j = (drop + 2) % 3;
+    const int64_t *f = s->F + 3 * t;
+    for (int k = 0; k < 3; k++)
+        line_of(c, LN_E, f[k], f[(k + 1) % 3]);
+    if (c->fail || c->n_lns != 3)
+        return c->fail == 2 ? -1 : 0;
+    for (int k = 0; k < 3; k++) {
+        int p = new_pt(c);
+        if (p < 0)
+            return -1;
+        make_vertex(c->pts + p, f[k], (k + 2) % 3, k);
+    }
+    const double *a = corner(s, t, 0), *b = corner(s, t, 1), *cc = corner(s, t, 2);
+    int8_t sense = (int8_t)orient2d(a[c->i], a[c->j], b[c->i], b[c->j], cc[c->i], cc[c->j]);
+    int n_segs = 0;
+    for (int64_t k = s->begin[t]; k < s->begin[t + 1]; k++) {
+        if (add_pair_segments(c, s->list[k], segs_p, &n_segs, cap_segs) < 0 || c->fail)
+            return c->fail == 2 ? -1 : 0;
+    }
+    Segment *segs = *segs_p;
+    for (int k = 0; k < 3; k++)
+        if (push_corner(c, k, k, sense) < 0)
+            return -1;
+    CellRef *cells = *cells_p, *next = *next_p;
+    int n_cells = 1;
+    cells[0].start = 0, cells[0].n = 3;
+    for (int g = 0; g < n_segs; g++) {
+        if (2 * n_cells + 2 > *cap_cells) {
+            int cap = 2 * (2 * n_cells + 2);
+            CellRef *x = realloc(cells, sizeof(CellRef) * cap), *y = x ? realloc(next, sizeof(CellRef) * cap) : NULL;
+            if (x)
+                cells = *cells_p = x;
+            if (!y)
+                return -1;
+            next = *next_p = y;
+            *cap_cells = cap;
+        }
+        int n_next = 0;
+        for (int k = 0; k < n_cells; k++) {
+            int cut = split(c, cells[k], segs + g, next + n_next);
+            if (cut < 0)
+                return c->fail == 2 ? -1 : 0;
+            if (cut)
+                n_next += 2;
+            else
+                next[n_next++] = cells[k];
+        }
+        CellRef *swap = cells;
+        cells = *cells_p = next;
+        next = *next_p = swap;
+        n_cells = n_next;
+    }
+    /* the cells, all or nothing */
+    Out saved = *o;
+    for (int k = 0; k < n_cells; k++) {
+        double inner[2 * N_INNER];
+        if (!inner_points(c, cells[k], inner))
+            goto back;
+        int64_t count = cells[k].n;
+        if (out_push(&o->face, &t, 8) < 0 || out_push(&o->count, &count, 8) < 0
+            || out_push(&o->inner, inner, sizeof inner) < 0)
+            return -1;
+        for (int q = 0; q < cells[k].n; q++) {
+            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q]);
+            if (id < 0)
+                goto back;
+            if (out_push(&o->corners, &id, 8) < 0)
+                return -1;
+        }
+        o->n_cells++;
+    }
+    return 1;
+back:
+    /* undo: sizes back (the buffers may have grown, which is harmless) */
+    o->face.size = saved.face.size, o->count.size = saved.count.size, o->corners.size = saved.corners.size;
+    o->inner.size = saved.inner.size, o->points.size = saved.points.size, o->errors.size = saved.errors.size;
+    o->n_cells = saved.n_cells, o->n_points = saved.n_points;
+    return 0;
+}
+
+/* ---- the segment of one pair (as _crossing) ------------------------------------------------------ */
+
+/* Order of two points of one line along `axis`: -1, 0, 1, or 2 when unsure. */
+static int along(const Shared *s, const Pt *p, const Pt *q, int axis)
+{
+    if (p->kind == PT_V && q->kind == PT_V) {
+        double x = vx(s, p->a)[axis], y = vx(s, q->a)[axis];
+        return (x > y) - (x < y);
+    }
+    fx xp = p->kind == PT_V ? fx_c(vx(s, p->a)[axis]) : p->X[axis], wp = p->kind == PT_V ? fx_c(1.0) : p->W;
+    fx xq = q->kind == PT_V ? fx_c(vx(s, q->a)[axis]) : q->X[axis], wq = q->kind == PT_V ? fx_c(1.0) : q->W;
+    int sign = fx_sign(fx_sub(fx_mul(xp, wq), fx_mul(xq, wp)));
+    return sign ? sign : 2;
+}
+
+/* The points of face f's triangle on the plane of face g: its vertices there, its edges crossing it. */
+static int on_plane(const Shared *s, int64_t f, int64_t g, const int *level, End *ends, Pt *pts)
+{
+    int count = 0;
+    for (int k = 0; k < 3; k++)
+        if (level[k] == 0) {
+            End e = {0, s->F[3 * f + k], 0, 0};
+            ends[count] = e;
+            make_vertex(pts + count++, e.a, -1, -1);
+        }
+    for (int k = 0; k < 3; k++) {
+        int l = (k + 1) % 3;
+        if (level[k] * level[l] < 0) {
+            End e = {1, s->F[3 * f + k], s->F[3 * f + l], g};
+            ends[count] = e;
+            if (!make_lpi(s, pts + count++, e.a, e.b, g, -1, -1))
+                return -1;
+        }
+    }
+    return count;
+}
+
+static void pair_segment(Shared *s, int64_t q)
+{
+    int64_t t = s->pairs[2 * q], u = s->pairs[2 * q + 1];
+    int lt[3], lu[3];                    /* t's corners against u's plane, u's against t's */
+    int zero = 0;
+    for (int k = 0; k < 3; k++) {
+        lu[k] = plane_side(s, t, corner(s, u, k));
+        lt[k] = plane_side(s, u, corner(s, t, k));
+        zero += lu[k] == 0;
+    }
+    s->kind[q] = PAIR_NONE;
+    if (zero == 3) {
+        s->kind[q] = PAIR_COPLANAR;
+        return;
+    }
+    End ends_t[3], ends_u[3];
+    Pt pts_t[3], pts_u[3];
+    int n_t = on_plane(s, u, t, lu, ends_t, pts_t), n_u = on_plane(s, t, u, lt, ends_u, pts_u);
+    if (n_t < 0 || n_u < 0) {
+        s->kind[q] = PAIR_UNSURE;
+        return;
+    }
+    if (n_t == 0 || n_u == 0)
+        return;                          /* one triangle strictly on one side of the other's plane */
+    fx d[3];
+    fx_cross(s->normal + 3 * t, s->normal + 3 * u, d);
+    int axis = 0;
+    for (int k = 1; k < 3; k++)
+        if (fabs(d[k].v) > fabs(d[axis].v))
+            axis = k;
+    int low_t = 0, high_t = 0, low_u = 0, high_u = 0;
+    for (int k = 1; k < n_t; k++) {
+        int lo = along(s, pts_t + k, pts_t + low_t, axis), hi = along(s, pts_t + k, pts_t + high_t, axis);
+        if (lo == 2 || hi == 2)
+            goto unsure;
+        if (lo < 0)
+            low_t = k;
+        if (hi > 0)
+            high_t = k;
+    }
+    for (int k = 1; k < n_u; k++) {
+        int lo = along(s, pts_u + k, pts_u + low_u, axis), hi = along(s, pts_u + k, pts_u + high_u, axis);
+        if (lo == 2 || hi == 2)
+            goto unsure;
+        if (lo < 0)
+            low_u = k;
+        if (hi > 0)
+            high_u = k;
+    }
+    int lows = along(s, pts_t + low_t, pts_u + low_u, axis), highs = along(s, pts_t + high_t, pts_u + high_u, axis);
+    if (lows == 2 || highs == 2)
+        goto unsure;
+    const Pt *low = lows >= 0 ? pts_t + low_t : pts_u + low_u, *high = highs <= 0 ? pts_t + high_t : pts_u + high_u;
+    const End *end_low = lows >= 0 ? ends_t + low_t : ends_u + low_u;
+    const End *end_high = highs <= 0 ? ends_t + high_t : ends_u + high_u;
+    int order = along(s, low, high, axis);
+    if (order == 2)
+        goto unsure;
+    if (order >= 0)
+        return;                          /* a point or nothing: no face is cut */
+    s->kind[q] = PAIR_SEGMENT;
+    s->ends[2 * q] = *end_low;
+    s->ends[2 * q + 1] = *end_high;
+    return;
+unsure:
+    s->kind[q] = PAIR_UNSURE;
+}
+
+/* ---- the whole stage ------------------------------------------------------------------------------ */
+
+#define FACES_PER_BLOCK 32
+
+typedef struct {
+    Shared *s;
+    const int64_t *faces;     /* faces with segments, ascending */
+    int64_t n_faces;
+    Out *outs;                /* per block */
+    Face *scratch;            /* per worker */
+    Segment **segs;
+    int *cap_segs;
+    CellRef **cells, **next;
+    int *cap_cells;
+    int memory;
+} Job;
+
+static void pair_block(void *ctx, int64_t block)
+{
+    Job *job = ctx;
+    int64_t end = (block + 1) * 1024 < job->s->p ? (block + 1) * 1024 : job->s->p;
+    for (int64_t q = block * 1024; q < end; q++)
+        pair_segment(job->s, q);
+}
+
+static void face_block(void *ctx, int worker, int64_t block)
+{
+    Job *job = ctx;
+    Face *c = job->scratch + worker;
+    Out *o = job->outs + block;
+    int64_t end = (block + 1) * FACES_PER_BLOCK < job->n_faces ? (block + 1) * FACES_PER_BLOCK : job->n_faces;
+    for (int64_t k = block * FACES_PER_BLOCK; k < end; k++) {
+        int64_t t = job->faces[k];
+        if (job->s->status[t] == 2)
+            continue;
+        int done = cut_face(c, o, t, job->segs + worker, job->cap_segs + worker, job->cells + worker,
+                            job->next + worker, job->cap_cells + worker);
+        if (done < 0) {
+            job->memory = 1;
+            return;
+        }
+        job->s->status[t] = done ? 1 : 2;
+        job->s->drop[t] = (int8_t)c->drop;
+    }
+}
+
+void arranged_free(Arranged *a)
+{
+    buf_free(&a->face), buf_free(&a->count), buf_free(&a->corners);
+    buf_free(&a->inner), buf_free(&a->points), buf_free(&a->errors);
+}
+
+int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *pairs, int64_t p, int threads,
+                int8_t *kind, int8_t *status, int8_t *drop, Arranged *result)
+{
+    Shared s = {V, F, n, m, p, pairs, NULL, kind, NULL, NULL, NULL, status, drop};
+    Job job;
+    memset(&job, 0, sizeof(job));
+    memset(result, 0, sizeof(*result));
+    int ok = -1;
+    int64_t n_faces = 0, blocks = 0, points = 0;
+    threads = threads < 1 ? 1 : (threads > 64 ? 64 : threads);
+    int64_t *faces = malloc(sizeof(int64_t) * (m ? m : 1));
+    s.normal = malloc(sizeof(fx) * 3 * (m ? m : 1));
+    s.ends = malloc(sizeof(End) * 2 * (p ? p : 1));
+    s.begin = calloc(m + 1, sizeof(int64_t));
+    s.list = malloc(sizeof(int64_t) * 2 * (p ? p : 1));
+    int64_t *fill = malloc(sizeof(int64_t) * (m ? m : 1));
+    if (!s.normal || !s.ends || !s.begin || !s.list || !faces || !fill)
+        goto done;
+    memset(status, 0, m);
+    memset(drop, 0, m);
+    for (int64_t q = 0; q < 2 * p; q++)
+        s.begin[pairs[q] + 1]++;
+    for (int64_t t = 0; t < m; t++) {
+        if (s.begin[t + 1])
+            face_normal(&s, t);
+        s.begin[t + 1] += s.begin[t];
+    }
+    memcpy(fill, s.begin, sizeof(int64_t) * m);
+    for (int64_t q = 0; q < p; q++) {
+        s.list[fill[pairs[2 * q]]++] = q;
+        s.list[fill[pairs[2 * q + 1]]++] = q;
+    }
+    job.s = &s;
+    parallel_blocks(threads, (p + 1023) / 1024, pair_block, &job);
+    for (int64_t t = 0; t < m; t++) {
+        int cut = 0, unsure = 0;
+        for (int64_t k = s.begin[t]; k < s.begin[t + 1]; k++) {
+            int8_t x = kind[s.list[k]];
+            cut |= x == PAIR_SEGMENT || x == PAIR_COPLANAR;
+            unsure |= x == PAIR_UNSURE;
+        }
+        if (unsure)
+            status[t] = 2;
+        if (cut || unsure)
+            faces[n_faces++] = t;
+    }
+    blocks = (n_faces + FACES_PER_BLOCK - 1) / FACES_PER_BLOCK;
+    job.faces = faces;
+    job.n_faces = n_faces;
+    job.outs = calloc(blocks ? blocks : 1, sizeof(Out));
+    job.scratch = calloc(threads, sizeof(Face));
+    job.segs = calloc(threads, sizeof(Segment *));
+    job.cap_segs = calloc(threads, sizeof(int));
+    job.cells = calloc(threads, sizeof(CellRef *));
+    job.next = calloc(threads, sizeof(CellRef *));
+    job.cap_cells = calloc(threads, sizeof(int));
+    if (!job.outs || !job.scratch || !job.segs || !job.cap_segs || !job.cells || !job.next || !job.cap_cells)
+        goto done;
+    for (int w = 0; w < threads; w++) {
+        job.scratch[w].s = &s;
+        job.cells[w] = malloc(sizeof(CellRef) * 64);
+        job.next[w] = malloc(sizeof(CellRef) * 64);
+        job.cap_cells[w] = 64;
+        if (!job.cells[w] || !job.next[w])
+            goto done;
+    }
+    parallel_workers(threads, blocks, face_block, &job);
+    if (job.memory)
+        goto done;
+    /* one output, blocks in order; new points renumbered after the earlier blocks' */
+    for (int64_t b = 0; b < blocks; b++) {
+        Out *o = job.outs + b;
+        int64_t *ids = (int64_t *)o->corners.data;
+        for (size_t k = 0; k < o->corners.size / 8; k++)
+            if (ids[k] >= n)
+                ids[k] += points;
+        points += o->n_points;
+        if ((o->face.size && out_push(&result->face, o->face.data, o->face.size) < 0)
+            || (o->count.size && out_push(&result->count, o->count.data, o->count.size) < 0)
+            || (o->corners.size && out_push(&result->corners, o->corners.data, o->corners.size) < 0)
+            || (o->inner.size && out_push(&result->inner, o->inner.data, o->inner.size) < 0)
+            || (o->points.size && out_push(&result->points, o->points.data, o->points.size) < 0)
+            || (o->errors.size && out_push(&result->errors, o->errors.data, o->errors.size) < 0))
+            goto done;
+        result->n_cells += o->n_cells;
+    }
+    result->n_points = points;
+    ok = 0;
+done:
+    if (job.outs)
+        for (int64_t b = 0; b < blocks; b++)
+            arranged_free(job.outs + b);
+    if (job.scratch)
+        for (int w = 0; w < threads; w++) {
+            Face *c = job.scratch + w;
+            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in);
+            if (job.segs)
+                free(job.segs[w]);
+            if (job.cells)
+                free(job.cells[w]);
+            if (job.next)
+                free(job.next[w]);
+        }
+    free(job.outs), free(job.scratch), free(job.segs), free(job.cap_segs), free(job.cells), free(job.next);
+    free(job.cap_cells);
+    free(faces), free(fill), free(s.normal), free(s.ends), free(s.begin), free(s.list);
+    if (ok < 0)
+        arranged_free(result);
+    return ok;
+}
