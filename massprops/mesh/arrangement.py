@@ -790,9 +790,11 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         rounding = np.vstack([compiled.rounding, rounding])
     # only the new corners the kept pieces use, numbered in order
     n = soup.scaled.shape[0]
-    used = np.unique(pieces[pieces >= n]) - n
-    renumber = np.full(points.shape[0], -1, dtype=np.int64)
-    renumber[used] = np.arange(used.size) + n
+    # (one corner for points that round alike with the same bound: the compiled cut lists a point once per cell)
     new = pieces >= n
+    used = np.unique(pieces[new]) - n
+    rows, index = np.unique(np.hstack([points[used], rounding[used]]), axis=0, return_inverse=True)
+    renumber = np.full(points.shape[0], -1, dtype=np.int64)
+    renumber[used] = index.reshape(-1) + n
     pieces[new] = renumber[pieces[new] - n]
-    return Arrangement(out, pieces, points[used], rounding[used], negative)
+    return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

@@ -147,6 +147,8 @@ typedef struct {
     int64_t a, b, c, d;       /* V: a; LPI: a, b, plane g = c; EE: a, b, c, d; TPI: faces a, b, c */
     fx s[2];                  /* LPI: levels of a, b against plane g */
     fx X[3], W;               /* homogeneous, W > 0 certified (not for V) */
+    fx D[3];                  /* X - W * (input vertex `origin`): the offset from a nearby vertex, times W */
+    int64_t origin;
     int64_t out;              /* index among the points returned, -1 until it is */
 } Pt;
 
@@ -159,8 +161,10 @@ static int normalise(Pt *p)
     p->flip = sw < 0;
     if (sw < 0) {
         p->W = fx_neg(p->W);
-        for (int k = 0; k < 3; k++)
+        for (int k = 0; k < 3; k++) {
             p->X[k] = fx_neg(p->X[k]);
+            p->D[k] = fx_neg(p->D[k]);
+        }
     }
     return 1;
 }
@@ -190,8 +194,11 @@ static int make_lpi(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t g, int
     p->s[0] = plane_level(s, g, x);
     p->s[1] = plane_level(s, g, y);
     p->W = fx_sub(p->s[0], p->s[1]);
-    for (int k = 0; k < 3; k++)
-        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), fx_mul(p->s[0], fx_diff(y[k], x[k])));
+    p->origin = P;
+    for (int k = 0; k < 3; k++) {
+        p->D[k] = fx_mul(p->s[0], fx_diff(y[k], x[k]));
+        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), p->D[k]);
+    }
     return normalise(p);
 }
 
@@ -209,8 +216,11 @@ static int make_ee(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t R, int6
     fx ri = fx_diff(r[i], x[i]), rj = fx_diff(r[j], x[j]);
     p->W = fx_sub(fx_mul(di, ej), fx_mul(dj, ei));
     fx num = fx_sub(fx_mul(ri, ej), fx_mul(rj, ei));
-    for (int k = 0; k < 3; k++)
-        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), fx_mul(num, fx_diff(y[k], x[k])));
+    p->origin = P;
+    for (int k = 0; k < 3; k++) {
+        p->D[k] = fx_mul(num, fx_diff(y[k], x[k]));
+        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), p->D[k]);
+    }
     return normalise(p);
 }
 
@@ -244,8 +254,11 @@ static int make_tpi(const Shared *s, Pt *p, int64_t f, int64_t g, int64_t h, int
     fx_cross(n3, n1, c31);
     fx_cross(n1, n2, c12);
     p->W = fx_dot(n1, c23);
-    for (int k = 0; k < 3; k++)
-        p->X[k] = fx_add(fx_mul(fx_c(o[k]), p->W), fx_add(fx_mul(d2, c31[k]), fx_mul(d3, c12[k])));
+    p->origin = s->F[3 * f];
+    for (int k = 0; k < 3; k++) {
+        p->D[k] = fx_add(fx_mul(d2, c31[k]), fx_mul(d3, c12[k]));
+        p->X[k] = fx_add(fx_mul(fx_c(o[k]), p->W), p->D[k]);
+    }
     return normalise(p);
 }
 
@@ -289,6 +302,7 @@ typedef struct {
     int *c_pt, *c_ln;
     int8_t *c_in;
     int n_c, cap_c;
+    struct Exact *exact;      /* scratch for exact rounding (NULL: the filter's bounds) */
 } Face;
 
 static int face_reserve(void **data, int *cap, int want, size_t item)
@@ -365,8 +379,14 @@ static int side(Face *c, const Pt *p, int li)
         value = fx_sub(fx_mul(fx_diff(b[i], a[i]), xj), fx_mul(fx_diff(b[j], a[j]), xi));
     }
     int sign = fx_sign(value);
-    if (sign == 0)
+    if (sign == 0) {
+        /* The line PQ crossing this face's plane meets the line RS of this plane exactly when the four
+         * points are coplanar (the lines are not parallel): a zero the filter cannot see. */
+        if (p->kind == PT_LPI && p->c == c->t && l->kind == LN_E
+            && orient3d(vx(s, p->a), vx(s, p->b), vx(s, l->a), vx(s, l->b)) == 0)
+            return 0;
         c->fail = 1;
+    }
     return sign;
 }
 
@@ -547,6 +567,235 @@ done:
     return result;
 }
 
+/* ---- exact rounding of the new points ------------------------------------------------------------ */
+
+/* Expansions (predicates.h's `grow`: nonoverlapping, increasing magnitude), kept short by Shewchuk's
+ * compress; after it the largest component is within one ulp of the exact value.  Lengths are checked
+ * against XN: a longer one (never seen) falls back to the certified bound of the filter. */
+#define XN 1024
+
+typedef struct {
+    int n;
+    double h[XN];
+} Xp;
+
+static void x_compress(Xp *x)
+{
+    int n = x->n;
+    if (n <= 1)
+        return;
+    double g[XN], *e = x->h;
+    int bottom = n - 1;
+    double q = e[n - 1];
+    for (int i = n - 2; i >= 0; i--) {
+        double sum = q + e[i], low = e[i] - (sum - q);
+        if (low != 0.0) {
+            g[bottom--] = sum;
+            q = low;
+        } else
+            q = sum;
+    }
+    int top = 0;
+    for (int i = bottom + 1; i < n; i++) {
+        double sum = g[i] + q, low = q - (sum - g[i]);
+        if (low != 0.0)
+            e[top++] = low;
+        q = sum;
+    }
+    if (q != 0.0 || top == 0)
+        e[top++] = q;
+    x->n = (top == 1 && e[0] == 0.0) ? 0 : top;
+}
+
+static void x_of(Xp *x, double a) { x->n = a != 0.0, x->h[0] = a; }
+
+static void x_diff(Xp *x, double a, double b)
+{
+    double s, e;
+    two_sum(a, -b, &s, &e);
+    x->n = 0;
+    if (e != 0.0)
+        x->h[x->n++] = e;
+    if (s != 0.0)
+        x->h[x->n++] = s;
+}
+
+/* out = a * b (+ out when add); 0, or -1 when too long. */
+static int x_mul(Xp *out, const Xp *a, const Xp *b, double sign, int add)
+{
+    if (!add)
+        out->n = 0;
+    for (int j = 0; j < b->n; j++)
+        for (int i = 0; i < a->n; i++) {
+            double p, e;
+            if (out->n + 2 > XN)
+                return -1;
+            two_prod(a->h[i], sign * b->h[j], &p, &e);
+            if (fabs(p) < 0x1p-900)
+                return -1;                      /* its rounding error might underflow: not exact */
+            out->n = grow(out->h, out->n, e);
+            out->n = grow(out->h, out->n, p);
+        }
+    x_compress(out);
+    return 0;
+}
+
+static int x_add(Xp *out, const Xp *a, double sign)
+{
+    for (int i = 0; i < a->n; i++) {
+        if (out->n + 1 > XN)
+            return -1;
+        out->n = grow(out->h, out->n, sign * a->h[i]);
+    }
+    x_compress(out);
+    return 0;
+}
+
+static inline double x_top(const Xp *x) { return x->n ? x->h[x->n - 1] : 0.0; }
+
+/* a * b - c * d */
+static int x_det2(Xp *out, const Xp *a, const Xp *b, const Xp *c, const Xp *d)
+{
+    return x_mul(out, a, b, 1.0, 0) < 0 || x_mul(out, c, d, -1.0, 1) < 0 ? -1 : 0;
+}
+
+/* Scratch for the exact rounding of one point (large: one per thread, on the heap). */
+typedef struct Exact {
+    Xp u[3], w[3], n1[3], n2[3], n3[3], c[3], t, t2, W, D[3], N;
+} Exact;
+
+static int x_normal(const Shared *s, int64_t f, Exact *x, Xp *n)
+{
+    const double *a = corner(s, f, 0), *b = corner(s, f, 1), *c = corner(s, f, 2);
+    for (int k = 0; k < 3; k++) {
+        x_diff(x->u + k, b[k], a[k]);
+        x_diff(x->w + k, c[k], a[k]);
+    }
+    for (int k = 0; k < 3; k++)
+        if (x_det2(n + k, x->u + (k + 1) % 3, x->w + (k + 2) % 3, x->u + (k + 2) % 3, x->w + (k + 1) % 3) < 0)
+            return -1;
+    return 0;
+}
+
+/* out = n . (x - a_f) for the normal n of face f (exact). */
+static int x_level(const Shared *s, int64_t f, const Xp *n, const double *x, Exact *e, Xp *out)
+{
+    const double *a = corner(s, f, 0);
+    out->n = 0;
+    for (int k = 0; k < 3; k++) {
+        x_diff(&e->t, x[k], a[k]);
+        if (x_mul(out, n + k, &e->t, 1.0, 1) < 0)
+            return -1;
+    }
+    return 0;
+}
+
+static int x_cross(Xp *out, const Xp *u, const Xp *w)
+{
+    for (int k = 0; k < 3; k++)
+        if (x_det2(out + k, u + (k + 1) % 3, w + (k + 2) % 3, u + (k + 2) % 3, w + (k + 1) % 3) < 0)
+            return -1;
+    return 0;
+}
+
+/* The point's W and D (x = origin + D / W) as exact expansions; 0, or -1. */
+static int exact_parts(const Face *c, const Pt *p, Exact *e)
+{
+    const Shared *s = c->s;
+    if (p->kind == PT_LPI) {
+        /* W = sP - sQ, D = sP (Q - P) */
+        const double *x = vx(s, p->a), *y = vx(s, p->b);
+        if (x_normal(s, p->c, e, e->n1) < 0 || x_level(s, p->c, e->n1, x, e, &e->t2) < 0
+            || x_level(s, p->c, e->n1, y, e, &e->W) < 0)
+            return -1;
+        if (x_add(&e->W, &e->t2, -1.0) < 0)          /* W = sQ - sP, negated below */
+            return -1;
+        for (int k = 0; k < e->W.n; k++)
+            e->W.h[k] = -e->W.h[k];
+        for (int k = 0; k < 3; k++) {
+            x_diff(&e->t, y[k], x[k]);
+            if (x_mul(e->D + k, &e->t2, &e->t, 1.0, 0) < 0)
+                return -1;
+        }
+        return 0;
+    }
+    if (p->kind == PT_EE) {
+        const double *x = vx(s, p->a), *y = vx(s, p->b), *r = vx(s, p->c), *q = vx(s, p->d);
+        int i = c->i, j = c->j;
+        Xp *di = e->u, *dj = e->u + 1, *ei = e->w, *ej = e->w + 1, *ri = e->n1, *rj = e->n1 + 1;
+        x_diff(di, y[i], x[i]), x_diff(dj, y[j], x[j]);
+        x_diff(ei, q[i], r[i]), x_diff(ej, q[j], r[j]);
+        x_diff(ri, r[i], x[i]), x_diff(rj, r[j], x[j]);
+        if (x_det2(&e->W, di, ej, dj, ei) < 0 || x_det2(&e->t2, ri, ej, rj, ei) < 0)
+            return -1;
+        for (int k = 0; k < 3; k++) {
+            x_diff(&e->t, y[k], x[k]);
+            if (x_mul(e->D + k, &e->t2, &e->t, 1.0, 0) < 0)
+                return -1;
+        }
+        return 0;
+    }
+    /* TPI: planes of f (through o), g, h: D = d2 (n3 x n1) + d3 (n1 x n2), W = n1 . (n2 x n3) */
+    const double *o = corner(s, p->a, 0);
+    if (x_normal(s, p->a, e, e->n1) < 0 || x_normal(s, p->b, e, e->n2) < 0 || x_normal(s, p->c, e, e->n3) < 0)
+        return -1;
+    Xp *d2 = &e->t2, *d3 = &e->N;
+    if (x_level(s, p->b, e->n2, o, e, d2) < 0 || x_level(s, p->c, e->n3, o, e, d3) < 0)
+        return -1;
+    if (x_cross(e->c, e->n2, e->n3) < 0)
+        return -1;
+    e->W.n = 0;
+    for (int k = 0; k < 3; k++)
+        if (x_mul(&e->W, e->n1 + k, e->c + k, 1.0, 1) < 0)
+            return -1;
+    /* c = n3 x n1; D = -d2 c */
+    if (x_cross(e->c, e->n3, e->n1) < 0)
+        return -1;
+    for (int k = 0; k < 3; k++)
+        if (x_mul(e->D + k, d2, e->c + k, -1.0, 0) < 0)
+            return -1;
+    if (x_cross(e->c, e->n1, e->n2) < 0)
+        return -1;
+    for (int k = 0; k < 3; k++)
+        if (x_mul(e->D + k, d3, e->c + k, -1.0, 1) < 0)
+            return -1;
+    return 0;
+}
+
+/* Each coordinate of point p rounded (origin + D / W, then once more to the nearest double when the
+ * exact error says so), with its exact error rounded up.  0, or -1 (then the caller keeps the
+ * filter's bound). */
+static int exact_round(const Face *c, const Pt *p, Exact *e, double *q, double *err)
+{
+    if (exact_parts(c, p, e) < 0)
+        return -1;
+    double w = x_top(&e->W);
+    if (w == 0.0)
+        return -1;
+    const double *origin = vx(c->s, p->origin);
+    Xp one;
+    for (int d = 0; d < 3; d++) {
+        /* N = (origin - q) W + D: the error x - q = N / W */
+        for (int pass = 0; pass < 2; pass++) {
+            x_diff(&one, origin[d], q[d]);
+            e->N = e->D[d];
+            if (x_mul(&e->N, &e->W, &one, 1.0, 1) < 0)
+                return -1;
+            double step = x_top(&e->N) / w;
+            if (pass == 0 && step != 0.0) {
+                double better = q[d] + step;            /* one correction: to within an ulp or so */
+                if (better != q[d] && isfinite(better)) {
+                    q[d] = better;
+                    continue;
+                }
+            }
+            err[d] = fabs(step) * (1.0 + 16 * EPS) + (e->N.n ? FX_TINY : 0.0);
+            break;
+        }
+    }
+    return 0;
+}
+
 /* ---- output of one block of faces --------------------------------------------------------------- */
 
 typedef Arranged Out;
@@ -578,7 +827,7 @@ static int out_push(Buf *g, const void *item, size_t bytes)
 #define N_INNER 6
 
 /* The corner's index among the returned points (input vertices: their own index). */
-static int64_t corner_out(Face *c, Out *o, int k)
+static int64_t corner_out(Face *c, Out *o, int k, Exact *exact)
 {
     Pt *p = c->pts + k;
     if (p->kind == PT_V)
@@ -589,14 +838,23 @@ static int64_t corner_out(Face *c, Out *o, int k)
     double low = (p->W.v - p->W.e) * (1.0 - 4 * EPS);
     if (!(low > 0.0))
         return -1;
+    const double *origin = vx(c->s, p->origin);
     for (int d = 0; d < 3; d++) {
-        q[d] = p->X[d].v / p->W.v;
-        /* |X/W - Xv/Wv| <= (eX + |Xv/Wv| eW) / (Wv - eW), and |Xv/Wv - q| <= u |q| */
-        double a = fabs(q[d]) * (1.0 + 4 * EPS);
-        err[d] = ((p->X[d].e + a * p->W.e) / low + a * EPS) * (1.0 + 0x1p-40) + FX_TINY;
+        /* x = origin + D / W.  d = Dv / Wv (rounded): |D/W - Dv/Wv| <= (eD + |Dv/Wv| eW) / (Wv - eW), and
+         * |Dv/Wv - d| <= u |d|; then q = origin + d rounded, whose error two_sum finds exactly. */
+        double step = p->D[d].v / p->W.v, rest;
+        double a = fabs(step) * (1.0 + 4 * EPS);
+        double bound = ((p->D[d].e + a * p->W.e) / low + a * EPS) * (1.0 + 0x1p-40) + FX_TINY;
+        two_sum(origin[d], step, &q[d], &rest);
+        err[d] = (bound + fabs(rest)) * (1.0 + 4 * EPS);
         if (!isfinite(q[d]) || !isfinite(err[d]))
             return -1;
     }
+    double q2[3] = {q[0], q[1], q[2]}, err2[3];
+    if (exact && exact_round(c, p, exact, q2, err2) == 0)
+        for (int d = 0; d < 3; d++)
+            if (isfinite(q2[d]) && isfinite(err2[d]) && err2[d] <= err[d])
+                q[d] = q2[d], err[d] = err2[d];
     if (out_push(&o->points, q, sizeof q) < 0 || out_push(&o->errors, err, sizeof err) < 0)
         return -1;
     p->out = o->n_points++;
@@ -794,7 +1052,7 @@ static int cut_face(Face *c, Out *o, int64_t t, Segment **segs_p, int *cap_segs,
             || out_push(&o->inner, inner, sizeof inner) < 0)
             return -1;
         for (int q = 0; q < cells[k].n; q++) {
-            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q]);
+            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q], c->exact);
             if (id < 0)
                 goto back;
             if (out_push(&o->corners, &id, 8) < 0)
@@ -813,8 +1071,28 @@ back:
 
 /* ---- the segment of one pair (as _crossing) ------------------------------------------------------ */
 
+/* Whether two points of the line where the planes of t and u meet are one point, exactly: ends of
+ * the segment (vertices of t or u, edges of one crossing the other's plane). */
+static int same_end(const Shared *s, const End *x, const End *y)
+{
+    if (x->kind == 0 && y->kind == 0) {
+        const double *p = vx(s, x->a), *q = vx(s, y->a);
+        return p[0] == q[0] && p[1] == q[1] && p[2] == q[2];
+    }
+    if (x->kind == 1 && y->kind == 1)
+        /* lines PQ and RS, each crossing the plane the other lies in, meet at a point of both planes */
+        return x->g != y->g && orient3d(vx(s, x->a), vx(s, x->b), vx(s, y->a), vx(s, y->b)) == 0;
+    const End *v = x->kind == 0 ? x : y, *e = x->kind == 0 ? y : x;
+    const double *p = vx(s, e->a), *q = vx(s, e->b), *r = vx(s, v->a);
+    /* the vertex on the line PQ: collinear in every projection */
+    for (int k = 0; k < 3; k++)
+        if (porient(k, p, q, r) != 0)
+            return 0;
+    return 1;
+}
+
 /* Order of two points of one line along `axis`: -1, 0, 1, or 2 when unsure. */
-static int along(const Shared *s, const Pt *p, const Pt *q, int axis)
+static int along(const Shared *s, const Pt *p, const Pt *q, const End *ep, const End *eq, int axis)
 {
     if (p->kind == PT_V && q->kind == PT_V) {
         double x = vx(s, p->a)[axis], y = vx(s, q->a)[axis];
@@ -823,7 +1101,7 @@ static int along(const Shared *s, const Pt *p, const Pt *q, int axis)
     fx xp = p->kind == PT_V ? fx_c(vx(s, p->a)[axis]) : p->X[axis], wp = p->kind == PT_V ? fx_c(1.0) : p->W;
     fx xq = q->kind == PT_V ? fx_c(vx(s, q->a)[axis]) : q->X[axis], wq = q->kind == PT_V ? fx_c(1.0) : q->W;
     int sign = fx_sign(fx_sub(fx_mul(xp, wq), fx_mul(xq, wp)));
-    return sign ? sign : 2;
+    return sign ? sign : (same_end(s, ep, eq) ? 0 : 2);
 }
 
 /* The points of face f's triangle on the plane of face g: its vertices there, its edges crossing it. */
@@ -880,7 +1158,8 @@ static void pair_segment(Shared *s, int64_t q)
             axis = k;
     int low_t = 0, high_t = 0, low_u = 0, high_u = 0;
     for (int k = 1; k < n_t; k++) {
-        int lo = along(s, pts_t + k, pts_t + low_t, axis), hi = along(s, pts_t + k, pts_t + high_t, axis);
+        int lo = along(s, pts_t + k, pts_t + low_t, ends_t + k, ends_t + low_t, axis);
+        int hi = along(s, pts_t + k, pts_t + high_t, ends_t + k, ends_t + high_t, axis);
         if (lo == 2 || hi == 2)
             goto unsure;
         if (lo < 0)
@@ -889,7 +1168,8 @@ static void pair_segment(Shared *s, int64_t q)
             high_t = k;
     }
     for (int k = 1; k < n_u; k++) {
-        int lo = along(s, pts_u + k, pts_u + low_u, axis), hi = along(s, pts_u + k, pts_u + high_u, axis);
+        int lo = along(s, pts_u + k, pts_u + low_u, ends_u + k, ends_u + low_u, axis);
+        int hi = along(s, pts_u + k, pts_u + high_u, ends_u + k, ends_u + high_u, axis);
         if (lo == 2 || hi == 2)
             goto unsure;
         if (lo < 0)
@@ -897,13 +1177,14 @@ static void pair_segment(Shared *s, int64_t q)
         if (hi > 0)
             high_u = k;
     }
-    int lows = along(s, pts_t + low_t, pts_u + low_u, axis), highs = along(s, pts_t + high_t, pts_u + high_u, axis);
+    int lows = along(s, pts_t + low_t, pts_u + low_u, ends_t + low_t, ends_u + low_u, axis);
+    int highs = along(s, pts_t + high_t, pts_u + high_u, ends_t + high_t, ends_u + high_u, axis);
     if (lows == 2 || highs == 2)
         goto unsure;
     const Pt *low = lows >= 0 ? pts_t + low_t : pts_u + low_u, *high = highs <= 0 ? pts_t + high_t : pts_u + high_u;
     const End *end_low = lows >= 0 ? ends_t + low_t : ends_u + low_u;
     const End *end_high = highs <= 0 ? ends_t + high_t : ends_u + high_u;
-    int order = along(s, low, high, axis);
+    int order = along(s, low, high, end_low, end_high, axis);
     if (order == 2)
         goto unsure;
     if (order >= 0)
@@ -1028,6 +1309,7 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
         goto done;
     for (int w = 0; w < threads; w++) {
         job.scratch[w].s = &s;
+        job.scratch[w].exact = malloc(sizeof(Exact));      /* NULL: the filter's bounds are used */
         job.cells[w] = malloc(sizeof(CellRef) * 64);
         job.next[w] = malloc(sizeof(CellRef) * 64);
         job.cap_cells[w] = 64;
@@ -1063,7 +1345,7 @@ done:
     if (job.scratch)
         for (int w = 0; w < threads; w++) {
             Face *c = job.scratch + w;
-            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in);
+            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in), free(c->exact);
             if (job.segs)
                 free(job.segs[w]);
             if (job.cells)
