@@ -606,6 +606,35 @@ class _Compiled:
         p[drop] = offset * denominator - normal[i] * a - normal[j] * c
         return _reduced(*p, n_drop * denominator)
 
+    def label(self, soup, pieces, first_patch, labels):
+        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut and patches
+        whose face has no coplanar partner (the net weight on them is their own)."""
+        chosen, faces, points = [], [], []
+        nan = (math.nan, math.nan)
+        inside = self.inside
+        for k, (t, cell, _, partners, _, _) in enumerate(pieces):
+            if partners:
+                continue
+            if k >= first_patch:
+                chosen.append(k), faces.append(t), points.append(nan)
+            elif not isinstance(cell, list):
+                chosen.append(k), faces.append(t), points.append(inside[cell, 0])
+        if not chosen:
+            return
+        from ..core.intersect import _extension, _PARALLEL_ABOVE
+        from ..core.threads import threads_for
+        front, status = _extension().labels(
+            soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
+            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64),
+            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)),
+            threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
+        front = np.frombuffer(front, dtype=np.int64)
+        answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
+        weights = soup.weights
+        for q, w in zip(answered.tolist(), front[answered].tolist()):
+            k = chosen[q]
+            labels[k] = (w, int(weights[pieces[k][0]]), True)
+
     def cell(self, c):
         """Corner indices of cell ``c``."""
         return self.corners[self.starts[c]:self.starts[c + 1]].tolist()
@@ -623,17 +652,22 @@ def _ray(normal):
 _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
-def _label_cells(soup, pieces, compiled=None):
+def _label_cells(soup, pieces, compiled=None, first_patch=None):
     """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
 
     ``cell`` is a list of homogeneous corners (its inner points are weighted
     means of three of them), or the number of a cell of ``compiled`` (a
-    :class:`_Compiled`, which gives its cells' inner points).  All pieces' rays are counted together
+    :class:`_Compiled`, which gives its cells' inner points); pieces from
+    ``first_patch`` on are whole faces of patches.  With ``compiled``, the
+    compiled core counts first (:meth:`_Compiled.label`); what it hands back
+    is counted here.  All pieces' rays are counted together
     (:meth:`_Soup.windings`); a piece whose inner point lies on another face
     is asked again at another inner point.
     """
     labels = [None] * len(pieces)
-    pending = list(range(len(pieces)))
+    if compiled is not None:
+        compiled.label(soup, pieces, first_patch, labels)
+    pending = [k for k, label in enumerate(labels) if label is None]
     for attempt, weights in enumerate(_TRIES):
         if not pending:
             break
@@ -763,7 +797,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     triangles = []
     negative = False
     side = {}
-    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces, compiled)):
+    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces, compiled, n_cells)):
         behind = front + net
         negative = negative or front < 0 or behind < 0
         t, cell = pieces[k][:2]

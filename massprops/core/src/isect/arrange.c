@@ -262,22 +262,26 @@ static int make_tpi(const Shared *s, Pt *p, int64_t f, int64_t g, int64_t h, int
     return normalise(p);
 }
 
-/* The point of face f's plane over (x, y) on axes i, j (dropping axis `drop`). */
-static int make_proj(const Shared *s, Pt *p, int64_t f, int drop, int i, int j, double x, double y)
+/* The point of the plane n . (q - a) = 0 over (x, y) on axes i, j (dropping axis `drop`). */
+static int make_proj_n(Pt *p, const fx *n, const double *a, int drop, int i, int j, double x, double y)
 {
     memset(p, 0, sizeof(*p));
     p->kind = PT_PROJ;
     p->l1 = p->l2 = -1;
     p->out = -1;
-    const fx *n = s->normal + 3 * f;
-    const double *a = corner(s, f, 0);
     p->W = n[drop];
     p->X[i] = fx_mul(fx_c(x), n[drop]);
     p->X[j] = fx_mul(fx_c(y), n[drop]);
-    /* n . (q - a) = 0: n_d q_d = n_d a_d - n_i (x - a_i) - n_j (y - a_j) */
+    /* n_d q_d = n_d a_d - n_i (x - a_i) - n_j (y - a_j) */
     p->X[drop] = fx_sub(fx_sub(fx_mul(n[drop], fx_c(a[drop])), fx_mul(n[i], fx_diff(x, a[i]))),
                         fx_mul(n[j], fx_diff(y, a[j])));
     return normalise(p);
+}
+
+/* The point of face f's plane over (x, y). */
+static int make_proj(const Shared *s, Pt *p, int64_t f, int drop, int i, int j, double x, double y)
+{
+    return make_proj_n(p, s->normal + 3 * f, corner(s, f, 0), drop, i, j, x, y);
 }
 
 /* ---- lines of one face ------------------------------------------------------------------------ */
@@ -1358,5 +1362,377 @@ done:
     free(faces), free(fill), free(s.normal), free(s.ends), free(s.begin), free(s.list);
     if (ok < 0)
         arranged_free(result);
+    return ok;
+}
+
+/* ---- labels: winding numbers at points inside the pieces (as _Soup.windings) ----------------------- */
+
+/* A query: the winding number at q + sigma (eps e1 + eps^2 e2) (eps > 0 infinitesimal; e1, e2 the axes
+ * after `axis`), q a point of face t's plane strictly inside the piece; counted along the ray +axis
+ * (Simulation of Simplicity, as the exact path).  Faces in t's plane are crossed or not by the
+ * perturbation alone.  A query whose every test the filter settles is answered; any other is handed
+ * back (the exact path answers it, or finds q on another face and asks at another point). */
+
+typedef struct {
+    double origin[2], inverse[2];
+    int side;
+    int64_t *begin;           /* side * side + 1 */
+    int32_t *face;
+} Columns;
+
+typedef struct {
+    const double *V;
+    const int64_t *F, *weight;
+    int64_t m;
+    double *lo, *hi;          /* 3 per face */
+    Columns columns[3];
+    const int64_t *qface;
+    const double *qxy;
+    int64_t k;
+    int64_t *front;
+    int8_t *status;
+    int memory;
+} Labels;
+
+static inline int column_of(const Columns *c, int d, double x)
+{
+    double v = (x - c->origin[d]) * c->inverse[d];
+    if (!(v > 0.0))
+        return 0;
+    return v >= c->side - 1 ? c->side - 1 : (int)v;
+}
+
+static int columns_build(Labels *L, int axis)
+{
+    Columns *c = L->columns + axis;
+    int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int64_t t = 0; t < L->m; t++) {
+        lo[0] = dmin(lo[0], L->lo[3 * t + a1]), hi[0] = dmax(hi[0], L->hi[3 * t + a1]);
+        lo[1] = dmin(lo[1], L->lo[3 * t + a2]), hi[1] = dmax(hi[1], L->hi[3 * t + a2]);
+    }
+    int side = (int)sqrt((double)L->m / 2.0);
+    side = side < 1 ? 1 : (side > 1024 ? 1024 : side);
+    for (;;) {
+        for (int d = 0; d < 2; d++) {
+            c->origin[d] = L->m ? lo[d] : 0.0;
+            double extent = L->m ? hi[d] - lo[d] : 1.0;
+            c->inverse[d] = extent > 0.0 ? side / extent : 1.0;
+        }
+        c->side = side;
+        int64_t entries = 0;
+        for (int64_t t = 0; t < L->m; t++) {
+            int64_t w = column_of(c, 0, L->hi[3 * t + a1]) - column_of(c, 0, L->lo[3 * t + a1]) + 1;
+            int64_t h = column_of(c, 1, L->hi[3 * t + a2]) - column_of(c, 1, L->lo[3 * t + a2]) + 1;
+            entries += w * h;
+        }
+        if (side == 1 || entries <= 16 * L->m) {
+            c->begin = calloc((size_t)side * side + 1, sizeof(int64_t));
+            c->face = malloc(sizeof(int32_t) * (entries ? entries : 1));
+            if (!c->begin || !c->face)
+                return -1;
+            for (int pass = 0; pass < 2; pass++) {
+                for (int64_t t = 0; t < L->m; t++) {
+                    int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
+                    int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
+                    for (int x = x0; x <= x1; x++)
+                        for (int y = y0; y <= y1; y++) {
+                            int64_t cell = (int64_t)x * side + y;
+                            if (pass == 0)
+                                c->begin[cell + 1]++;
+                            else
+                                c->face[c->begin[cell]++] = (int32_t)t;
+                        }
+                }
+                if (pass == 0)
+                    for (int64_t q = 0; q < (int64_t)side * side; q++)
+                        c->begin[q + 1] += c->begin[q];
+                else {
+                    for (int64_t q = (int64_t)side * side; q > 0; q--)
+                        c->begin[q] = c->begin[q - 1];
+                    c->begin[0] = 0;
+                }
+            }
+            return 0;
+        }
+        side = side / 2 > 1 ? side / 2 : 1;
+    }
+}
+
+static inline const double *lcorner(const Labels *L, int64_t f, int k) { return L->V + 3 * L->F[3 * f + k]; }
+
+/* Exact sign of the component `axis` of face f's normal (b - a) x (c - a). */
+static inline int normal_sign(const Labels *L, int64_t f, int axis)
+{
+    int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    const double *a = lcorner(L, f, 0), *b = lcorner(L, f, 1), *c = lcorner(L, f, 2);
+    return orient2d(a[a1], a[a2], b[a1], b[a2], c[a1], c[a2]);
+}
+
+/* The query point (face t's plane over (x, y) on axes i, j) as exact expansions X[3], W, in e. */
+typedef struct {
+    int64_t t;
+    int drop, i, j;
+    double x, y;
+    Exact *e;                 /* scratch; NULL: no exact evaluation */
+    Xp X[3], W;
+    int ready;                /* X, W computed (1), failed (-1), not yet (0) */
+} Query;
+
+static int query_exact(const Labels *L, Query *q)
+{
+    if (q->ready)
+        return q->ready;
+    q->ready = -1;
+    if (!q->e)
+        return -1;
+    Shared s;
+    memset(&s, 0, sizeof(s));
+    s.V = L->V, s.F = L->F;
+    Exact *e = q->e;
+    if (x_normal(&s, q->t, e, e->n1) < 0)
+        return -1;
+    const double *a = lcorner(L, q->t, 0);
+    Xp v;
+    q->W = e->n1[q->drop];
+    x_of(&v, q->x);
+    if (x_mul(q->X + q->i, e->n1 + q->drop, &v, 1.0, 0) < 0)
+        return -1;
+    x_of(&v, q->y);
+    if (x_mul(q->X + q->j, e->n1 + q->drop, &v, 1.0, 0) < 0)
+        return -1;
+    /* X_d = n_d a_d - n_i (x - a_i) - n_j (y - a_j) */
+    Xp *out = q->X + q->drop;
+    x_of(&v, a[q->drop]);
+    if (x_mul(out, e->n1 + q->drop, &v, 1.0, 0) < 0)
+        return -1;
+    x_diff(&v, q->x, a[q->i]);
+    if (x_mul(out, e->n1 + q->i, &v, -1.0, 1) < 0)
+        return -1;
+    x_diff(&v, q->y, a[q->j]);
+    if (x_mul(out, e->n1 + q->j, &v, -1.0, 1) < 0)
+        return -1;
+    q->ready = 1;
+    return 1;
+}
+
+/* Exact sign of orient2d(U, V, q) on axes a1, a2 (times W^2 > 0); 2 when it could not be found. */
+static int exact_turn(const Labels *L, Query *q, const double *U, const double *V, int a1, int a2)
+{
+    if (query_exact(L, q) < 0)
+        return 2;
+    Exact *e = q->e;
+    Xp v, *A = e->u, *B = e->u + 1, *C = e->w, *D = e->w + 1;
+    const double *pt[2] = {U, V};
+    Xp *slot[2][2] = {{A, C}, {D, B}};      /* U: (a1, a2) -> A, C; V: (a1, a2) -> D, B */
+    int axes[2] = {a1, a2};
+    for (int w = 0; w < 2; w++)
+        for (int d = 0; d < 2; d++) {
+            Xp *out = slot[w][d];
+            out->n = 0;
+            if (x_add(out, q->X + axes[d], -1.0) < 0)
+                return 2;
+            x_of(&v, pt[w][axes[d]]);
+            if (x_mul(out, &q->W, &v, 1.0, 1) < 0)
+                return 2;
+        }
+    /* (U_a1 W - X_a1)(V_a2 W - X_a2) - (U_a2 W - X_a2)(V_a1 W - X_a1) */
+    if (x_det2(&e->N, A, B, C, D) < 0)
+        return 2;
+    double top = x_top(&e->N);
+    return (top > 0) - (top < 0);
+}
+
+/* The weight face u adds to the query's count; 2 when a sign is unsure. */
+static int64_t ahead(const Labels *L, int64_t t, int64_t u, const Pt *p, Query *query, int axis, int sigma,
+                     int *unsure)
+{
+    int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    const double *a = lcorner(L, u, 0), *b = lcorner(L, u, 1), *c = lcorner(L, u, 2);
+    /* level: n_u . (q - a) times W */
+    fx du[3], dv[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        du[k] = fx_diff(b[k], a[k]);
+        dv[k] = fx_diff(c[k], a[k]);
+    }
+    fx_cross(du, dv, n);
+    fx level = fx_c(0.0);
+    for (int k = 0; k < 3; k++)
+        level = fx_add(level, fx_mul(n[k], fx_sub(p->X[k], fx_mul(fx_c(a[k]), p->W))));
+    int side = fx_sign(level);
+    if (side == 0) {
+        /* on u's plane: allowed only when u lies in t's plane (then the perturbation decides) */
+        const double *o = lcorner(L, t, 0), *q = lcorner(L, t, 1), *r = lcorner(L, t, 2);
+        if (u != t && (orient3d(o, q, r, a) != 0 || orient3d(o, q, r, b) != 0 || orient3d(o, q, r, c) != 0)) {
+            *unsure = 1;
+            return 0;
+        }
+    }
+    int facing = normal_sign(L, u, axis);
+    if (facing == 0)
+        return 0;
+    const double *corners[3] = {a, b, c};
+    int undecided = 0;
+    for (int k = 0; k < 3; k++) {
+        const double *x = corners[k], *y = corners[(k + 1) % 3];
+        fx xa = fx_sub(fx_mul(fx_c(x[a1]), p->W), p->X[a1]), xb = fx_sub(fx_mul(fx_c(x[a2]), p->W), p->X[a2]);
+        fx ya = fx_sub(fx_mul(fx_c(y[a1]), p->W), p->X[a1]), yb = fx_sub(fx_mul(fx_c(y[a2]), p->W), p->X[a2]);
+        int o = fx_sign(fx_sub(fx_mul(xa, yb), fx_mul(xb, ya)));
+        if (o == 0) {
+            o = exact_turn(L, query, x, y, a1, a2);
+            if (o == 0)                  /* on the edge's line: the perturbation decides, as the exact path */
+                o = sigma * ((x[a2] > y[a2]) - (x[a2] < y[a2]));
+            if (o == 0)
+                o = sigma * ((y[a1] > x[a1]) - (y[a1] < x[a1]));
+        }
+        if (o == 2 || o == 0)
+            undecided = 1;
+        else if (o != facing)
+            return 0;                    /* the ray certainly misses u */
+    }
+    if (undecided) {
+        *unsure = 1;
+        return 0;
+    }
+    if (side == 0)
+        side = sigma * (normal_sign(L, u, a1) ? normal_sign(L, u, a1) : normal_sign(L, u, a2));
+    return -side * facing > 0 ? L->weight[u] * facing : 0;
+}
+
+static void label_block(void *ctx, int64_t block)
+{
+    Labels *L = ctx;
+    Query query;
+    query.e = malloc(sizeof(Exact));         /* NULL: edges the filter cannot settle are handed back */
+    int64_t end = (block + 1) * 256 < L->k ? (block + 1) * 256 : L->k;
+    fx normal[3];
+    for (int64_t q = block * 256; q < end; q++) {
+        int64_t t = L->qface[q];
+        L->status[q] = 1;
+        const double *a = lcorner(L, t, 0), *b = lcorner(L, t, 1), *c = lcorner(L, t, 2);
+        int drop = triangle_axis(a, b, c);
+        if (drop < 0)
+            continue;
+        int i = (drop + 1) % 3, j = (drop + 2) % 3;
+        double x = L->qxy[2 * q], y = L->qxy[2 * q + 1];
+        Pt p;
+        /* the normal of t, for make_proj (which reads s.normal + 3 t) */
+        fx du[3], dv[3];
+        for (int k = 0; k < 3; k++)
+            du[k] = fx_diff(b[k], a[k]), dv[k] = fx_diff(c[k], a[k]);
+        fx_cross(du, dv, normal);
+        if (x != x || y != y) {
+            /* a face's own query: its centroid, certified inside below */
+            x = (a[i] + b[i] + c[i]) / 3.0, y = (a[j] + b[j] + c[j]) / 3.0;
+            if (!make_proj_n(&p, normal, a, drop, i, j, x, y))
+                continue;
+            int sense = orient2d(a[i], a[j], b[i], b[j], c[i], c[j]), inside = 1;
+            const double *cs[3] = {a, b, c};
+            for (int k = 0; k < 3 && inside; k++) {
+                const double *u = cs[k], *v = cs[(k + 1) % 3];
+                fx ui = fx_sub(fx_mul(fx_c(u[i]), p.W), p.X[i]), uj = fx_sub(fx_mul(fx_c(u[j]), p.W), p.X[j]);
+                fx vi = fx_sub(fx_mul(fx_c(v[i]), p.W), p.X[i]), vj = fx_sub(fx_mul(fx_c(v[j]), p.W), p.X[j]);
+                inside = fx_sign(fx_sub(fx_mul(ui, vj), fx_mul(uj, vi))) * sense > 0;
+            }
+            if (!inside) {
+                L->status[q] = 2;
+                continue;
+            }
+        } else if (!make_proj_n(&p, normal, a, drop, i, j, x, y))
+            continue;
+        /* the ray: along the axis t's normal leans on least (exactly as the exact path) */
+        double mag[3];
+        for (int k = 0; k < 3; k++)
+            mag[k] = fabs(normal[k].v);
+        int axis = 0;
+        for (int k = 1; k < 3; k++)
+            if (mag[k] < mag[axis])
+                axis = k;
+        /* the exact path takes the first least |n_k|: a zero one if any (exact signs), else a near tie
+         * is handed back */
+        int tie = 0, zero = -1;
+        for (int k = 2; k >= 0; k--)
+            if (normal_sign(L, t, k) == 0)
+                zero = k;
+        if (zero >= 0)
+            axis = zero;
+        else
+            for (int k = 0; k < 3; k++)
+                if (k != axis && !(mag[k] - normal[k].e > mag[axis] + normal[axis].e))
+                    tie = 1;
+        if (tie)
+            continue;
+        int a1 = (axis + 1) % 3;
+        int sigma = normal_sign(L, t, a1) ? normal_sign(L, t, a1) : normal_sign(L, t, (axis + 2) % 3);
+        const Columns *col = L->columns + axis;
+        if (!col->begin)
+            continue;
+        int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+        /* the columns the point may be in (its coordinates within their certified bounds) */
+        double wl = p.W.v - p.W.e;
+        if (!(wl > 0.0))
+            continue;
+        double cx = p.X[b1].v / p.W.v, cy = p.X[b2].v / p.W.v;
+        double rx = (p.X[b1].e + fabs(cx) * p.W.e) / wl * 2.0 + fabs(cx) * 4 * EPS + FX_TINY;
+        double ry = (p.X[b2].e + fabs(cy) * p.W.e) / wl * 2.0 + fabs(cy) * 4 * EPS + FX_TINY;
+        double cz = p.X[axis].v / p.W.v;
+        double rz = (p.X[axis].e + fabs(cz) * p.W.e) / wl * 2.0 + fabs(cz) * 4 * EPS + FX_TINY;
+        int x0 = column_of(col, 0, cx - rx), x1 = column_of(col, 0, cx + rx);
+        int y0 = column_of(col, 1, cy - ry), y1 = column_of(col, 1, cy + ry);
+        int unsure = 0;
+        int64_t total = 0;
+        query.t = t, query.drop = drop, query.i = i, query.j = j, query.x = x, query.y = y, query.ready = 0;
+        for (int gx = x0; gx <= x1 && !unsure; gx++)
+            for (int gy = y0; gy <= y1 && !unsure; gy++) {
+                int64_t cell = (int64_t)gx * col->side + gy;
+                for (int64_t e = col->begin[cell]; e < col->begin[cell + 1] && !unsure; e++) {
+                    int64_t u = col->face[e];
+                    const double *lo = L->lo + 3 * u, *hi = L->hi + 3 * u;
+                    if (lo[b1] > cx + rx || hi[b1] < cx - rx || lo[b2] > cy + ry || hi[b2] < cy - ry
+                        || hi[axis] < cz - rz)
+                        continue;        /* the box misses every point the query may be, or lies behind */
+                    /* each face once: in the first column both the query's and the face's ranges hold */
+                    int fx0 = column_of(col, 0, lo[b1]), fy0 = column_of(col, 1, lo[b2]);
+                    if (gx != (fx0 > x0 ? fx0 : x0) || gy != (fy0 > y0 ? fy0 : y0))
+                        continue;
+                    total += ahead(L, t, u, &p, &query, axis, sigma, &unsure);
+                }
+            }
+        if (unsure)
+            continue;
+        L->front[q] = total;
+        L->status[q] = 0;
+    }
+    free(query.e);
+}
+
+int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
+                  const double *qxy, int64_t k, int threads, int64_t *front, int8_t *status)
+{
+    Labels L;
+    memset(&L, 0, sizeof(L));
+    L.V = V, L.F = F, L.weight = weight, L.m = m, L.qface = qface, L.qxy = qxy, L.k = k;
+    L.front = front, L.status = status;
+    int ok = -1;
+    L.lo = malloc(sizeof(double) * 3 * (m ? m : 1));
+    L.hi = malloc(sizeof(double) * 3 * (m ? m : 1));
+    if (!L.lo || !L.hi)
+        goto done;
+    for (int64_t t = 0; t < m; t++) {
+        const double *a = lcorner(&L, t, 0), *b = lcorner(&L, t, 1), *c = lcorner(&L, t, 2);
+        for (int d = 0; d < 3; d++) {
+            L.lo[3 * t + d] = dmin(a[d], dmin(b[d], c[d]));
+            L.hi[3 * t + d] = dmax(a[d], dmax(b[d], c[d]));
+        }
+    }
+    for (int axis = 0; axis < 3; axis++)
+        if (columns_build(&L, axis) < 0)
+            goto done;
+    parallel_blocks(threads, (k + 255) / 256, label_block, &L);
+    ok = 0;
+done:
+    for (int axis = 0; axis < 3; axis++)
+        free(L.columns[axis].begin), free(L.columns[axis].face);
+    free(L.lo), free(L.hi);
     return ok;
 }

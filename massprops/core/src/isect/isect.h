@@ -166,4 +166,11 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
                 int8_t *kind, int8_t *status, int8_t *drop, Arranged *result);
 void arranged_free(Arranged *a);
 
+/* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
+ * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
+ * status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified point.
+ * 0, or -1 when memory ran out. */
+int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
+                  const double *qxy, int64_t k, int threads, int64_t *front, int8_t *status);
+
 #endif

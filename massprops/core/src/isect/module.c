@@ -7,6 +7,7 @@
  *   winding(V, F, points)            winding numbers of points off the surface (winding.c)
  *   orient3d_signs(P)                a batch of the predicate
  *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
+ *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -341,6 +342,57 @@ static PyObject *py_arrange(PyObject *self, PyObject *args)
     return result;
 }
 
+static PyObject *py_labels(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *wo, *qo, *xo;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &wo, &qo, &xo, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, wb, qb, xb;
+    if (get_three(vo, fo, wo, &vb, &fb, &wb, 8, 0, "weights") < 0)
+        return NULL;
+    if (get_buffer(qo, &qb, 8, 0, "query faces") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb);
+        return NULL;
+    }
+    if (get_buffer(xo, &xb, 16, 0, "query points") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb), PyBuffer_Release(&qb);
+        return NULL;
+    }
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24, k = qb.len / 8;
+    PyObject *front = PyBytes_FromStringAndSize(NULL, 8 * k), *status = PyBytes_FromStringAndSize(NULL, k);
+    PyObject *result = NULL;
+    const char *bad = wb.len / 8 != m ? "weights need one entry per face"
+                      : xb.len / 16 != k ? "query points need one per query face" : NULL;
+    int code = 0;
+    if (front && status && !bad) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *q = qb.buf;
+        for (Py_ssize_t i = 0; i < k && !bad; i++)
+            if (q[i] < 0 || q[i] >= m)
+                bad = "a query names a face that does not exist";
+        if (!bad)
+            code = label_queries(vb.buf, fb.buf, wb.buf, m, qb.buf, xb.buf, k, threads,
+                                 (int64_t *)PyBytes_AS_STRING(front), (int8_t *)PyBytes_AS_STRING(status));
+        Py_END_ALLOW_THREADS
+    }
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    else if (front && status && code < 0)
+        PyErr_NoMemory();
+    else if (front && status) {
+        result = Py_BuildValue("NN", front, status);
+        front = status = NULL;
+    }
+    Py_XDECREF(front);
+    Py_XDECREF(status);
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb), PyBuffer_Release(&qb);
+    PyBuffer_Release(&xb);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -357,6 +409,9 @@ static PyMethodDef methods[] = {
      "arrange(vertices, faces, pairs (p, 2), threads) -> (kind int8 per pair, status int8 per face, drop int8 per\n"
      "face, cell faces int64, corner counts int64, corners int64, inner points (c, 6, 2) float64, new points (q, 3),\n"
      "their errors (q, 3)) (bytes): the arrangement's cut stage (arrange.c)"},
+    {"labels", py_labels, METH_VARARGS,
+     "labels(vertices, faces, weights, query faces, query points (k, 2) or NaN, threads) -> (winding numbers\n"
+     "int64, status int8: 0 answered, 1 handed back, 2 no certified point) (bytes) (arrange.c)"},
     {NULL, NULL, 0, NULL},
 };
 
