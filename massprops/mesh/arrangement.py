@@ -132,16 +132,22 @@ class _Soup:
         self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self.exponent, 0)
         self._points = {}
         self._planes = {}
-        corners = scaled[faces]
-        self.low = corners.min(axis=1)
-        self.high = corners.max(axis=1)
         self.scaled = scaled
-        # Every query's box margin (below) is at most this one: the columns may only add candidates.
-        self._reach = 1.0 + float(np.abs(scaled).max(initial=0.0))
-        self._margin = 2e-9 * self._reach
-        self._corners = corners
-        self._weights_float = weights.astype(np.float64)
         self._columns = {}
+        self._boxes = None
+
+    def _floats(self):
+        """The faces' corners and boxes in floating point, for :meth:`_near` (made when first asked)."""
+        if self._boxes is None:
+            corners = self.scaled[self.faces]
+            self.low = corners.min(axis=1)
+            self.high = corners.max(axis=1)
+            # Every query's box margin (below) is at most this one: the columns may only add candidates.
+            self._reach = 1.0 + float(np.abs(self.scaled).max(initial=0.0))
+            self._margin = 2e-9 * self._reach
+            self._corners = corners
+            self._weights_float = self.weights.astype(np.float64)
+            self._boxes = True
 
     def point(self, v):
         """Vertex ``v`` as integers (3)."""
@@ -224,6 +230,7 @@ class _Soup:
         here; every other face is left to the exact test.
         """
         unit = math.ldexp(1.0, self.exponent)
+        self._floats()
         for axis in range(3):
             mine = [k for k, q in enumerate(queries) if q[1] == axis]
             a1, a2 = (axis + 1) % 3, (axis + 2) % 3
@@ -635,9 +642,20 @@ class _Compiled:
             k = chosen[q]
             labels[k] = (w, int(weights[pieces[k][0]]), True)
 
-    def cell(self, c):
-        """Corner indices of cell ``c``."""
-        return self.corners[self.starts[c]:self.starts[c + 1]].tolist()
+    def fans(self, chosen):
+        """Triangles (k, 3) fanning the cells ``(c, outward)`` chosen, reversed where not outward."""
+        cells = np.array([c for c, _ in chosen], dtype=np.int64)
+        outward = np.array([o for _, o in chosen], dtype=bool)
+        start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
+        fan = count - 2                                   # triangles per cell
+        owner = np.repeat(np.arange(cells.size), fan)
+        step = np.arange(owner.size) - np.repeat(np.cumsum(fan) - fan, fan) + 1   # 1 .. count - 2
+        first = start[owner]
+        triangles = np.stack([first, first + step, first + step + 1], axis=1)
+        ids = self.corners[triangles]
+        flip = ~outward[owner]
+        ids[flip] = ids[flip][:, ::-1]
+        return ids
 
 
 # -- the arrangement -----------------------------------------------------------------------------
@@ -674,6 +692,10 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
         queries, nets, asked = [], [], []
         for k in pending:
             t, cell, normal, partners, i, j = pieces[k]
+            if normal is None:
+                corners, normal, _ = soup.plane(t)
+                if cell is None:
+                    cell = [(*q, 1) for q in corners]
             p = _inner_point(cell, weights) if isinstance(cell, list) else compiled.inner(soup, t, cell, attempt, i, j)
             if p is None:
                 continue
@@ -775,10 +797,9 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     if compiled is not None:
         cut |= compiled.status == 1
         drops = compiled.drop.tolist()
-        for c, t in enumerate(compiled.face.tolist()):
-            normal = soup.plane(t)[1]
-            drop = drops[t]
-            pieces.append((t, c, normal, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3))
+        # (normal None: the exact normal is made only if the exact path asks for it)
+        pieces = [(t, c, None, partners.get(t, ()), (drops[t] + 1) % 3, (drops[t] + 2) % 3)
+                  for c, t in enumerate(compiled.face.tolist())]
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -787,37 +808,36 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     uncut = np.flatnonzero(~cut)
     if uncut.size:
         patch = _patches(faces, cut)
-        first = {}
-        for t in uncut.tolist():
-            first.setdefault(int(patch[t]), t)
-        for t in first.values():         # one piece per patch: the whole face, asked at its centroid first
-            corners, normal, _ = soup.plane(t)
-            pieces.append((t, [(*q, 1) for q in corners], normal, (), 0, 1))
+        patches, first = np.unique(patch[uncut], return_index=True)
+        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first
+        pieces.extend((t, None, None, (), 0, 1) for t in uncut[first].tolist())
+    labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
+    front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
+    negative = bool(np.any(front < 0) or np.any(behind < 0))
+    bounding = (front > 0) != (behind > 0)
     kept_corners = _Corners(soup, 0 if compiled is None else compiled.points.shape[0])
     triangles = []
-    negative = False
-    side = {}
-    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces, compiled, n_cells)):
-        behind = front + net
-        negative = negative or front < 0 or behind < 0
-        t, cell = pieces[k][:2]
-        if k >= n_cells:
-            side[int(patch[t])] = 0 if (front > 0) == (behind > 0) else (1 if behind > 0 else -1)
-        elif owned and (front > 0) != (behind > 0):
-            if isinstance(cell, list):
-                kept_corners.add_polygon(cell, triangles, behind > 0)
-            else:
-                ids = compiled.cell(cell)
-                if not behind > 0:
-                    ids.reverse()
-                triangles.extend((ids[0], ids[q], ids[q + 1]) for q in range(1, len(ids) - 1))
+    keep = np.flatnonzero((bounding & owned)[:n_cells])
+    outward = (behind > 0)[keep].tolist()
+    fans = []
+    for k, out in zip(keep.tolist(), outward):
+        cell = pieces[k][1]
+        if isinstance(cell, list):
+            kept_corners.add_polygon(cell, triangles, out)
+        else:
+            fans.append((cell, out))
+    if fans:
+        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3), compiled.fans(fans)]
+    else:
+        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
     kept = []
     if uncut.size:
-        signs = np.array([side[int(label)] for label in patch[uncut]], dtype=np.int64)
+        side = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
+        signs = side[np.searchsorted(patches, patch[uncut])]
         kept_faces = faces[uncut]
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
-    pieces = np.array(triangles, dtype=np.int64).reshape(-1, 3)
+    pieces = np.vstack(triangles)
     points, rounding = kept_corners.points()
     if compiled is not None:
         points = np.vstack([compiled.points, points])
