@@ -720,23 +720,10 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
 
 
 def _patches(faces, cut):
-    """Groups of uncut faces joined across edges that exactly two faces use, once each way."""
-    m = faces.shape[0]
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    owner = np.repeat(np.arange(m), 3)
-    low = np.minimum(directed[:, 0], directed[:, 1])
-    high = np.maximum(directed[:, 0], directed[:, 1])
-    order = np.lexsort((high, low))
-    low, high, owner, forward = low[order], high[order], owner[order], (directed[order, 0] < directed[order, 1])
-    starts = np.flatnonzero(np.r_[True, (low[1:] != low[:-1]) | (high[1:] != high[:-1])])
-    counts = np.diff(np.r_[starts, low.size])
-    pairs = starts[counts == 2]
-    a, b = owner[pairs], owner[pairs + 1]
-    keep = (forward[pairs] != forward[pairs + 1]) & ~cut[a] & ~cut[b]
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    graph = coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(m, m))
-    return connected_components(graph, directed=False)[1]
+    """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
+    from ..core.intersect import _extension
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
 
 
 def arrange(geometry, faces, weights, pairs, *, compiled=True):

@@ -639,6 +639,8 @@ static int x_mul(Xp *out, const Xp *a, const Xp *b, double sign, int add)
                 return -1;                      /* its rounding error might underflow: not exact */
             out->n = grow(out->h, out->n, e);
             out->n = grow(out->h, out->n, p);
+            if (out->n > 24)
+                x_compress(out);                /* short, so each grow stays cheap */
         }
     x_compress(out);
     return 0;
@@ -650,6 +652,8 @@ static int x_add(Xp *out, const Xp *a, double sign)
         if (out->n + 1 > XN)
             return -1;
         out->n = grow(out->h, out->n, sign * a->h[i]);
+        if (out->n > 24)
+            x_compress(out);
     }
     x_compress(out);
     return 0;
@@ -1725,8 +1729,22 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
             L.hi[3 * t + d] = dmax(a[d], dmax(b[d], c[d]));
         }
     }
+    /* columns only along the axes the queries' rays take (a face's least normal component) */
+    int used[3] = {0, 0, 0};
+    for (int64_t q = 0; q < k; q++) {
+        const double *a = lcorner(&L, qface[q], 0), *b = lcorner(&L, qface[q], 1), *c = lcorner(&L, qface[q], 2);
+        double n[3];
+        for (int d = 0; d < 3; d++) {
+            int d1 = (d + 1) % 3, d2 = (d + 2) % 3;
+            n[d] = fabs((b[d1] - a[d1]) * (c[d2] - a[d2]) - (b[d2] - a[d2]) * (c[d1] - a[d1]));
+        }
+        /* near ties: both axes may be taken */
+        double least = dmin(n[0], dmin(n[1], n[2]));
+        for (int d = 0; d < 3; d++)
+            used[d] |= n[d] <= least * (1.0 + 1e-6) + 1e-300;
+    }
     for (int axis = 0; axis < 3; axis++)
-        if (columns_build(&L, axis) < 0)
+        if (used[axis] && columns_build(&L, axis) < 0)
             goto done;
     parallel_blocks(threads, (k + 255) / 256, label_block, &L);
     ok = 0;
@@ -1735,4 +1753,65 @@ done:
         free(L.columns[axis].begin), free(L.columns[axis].face);
     free(L.lo), free(L.hi);
     return ok;
+}
+
+/* ---- patches: uncut faces joined across edges that exactly two faces use, once each way ------------- */
+
+static int64_t root_of(int64_t *parent, int64_t x)
+{
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
+typedef struct {
+    uint64_t key;             /* (low + 1) << 32 | high + 1 ... as one 64-bit number; 0 = empty */
+    int64_t face;             /* the first face; its edge ran low -> high when forward */
+    int32_t count;
+    int8_t forward, other_forward;
+    int64_t other;
+} EdgeSlot;
+
+int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label)
+{
+    uint64_t size = 16;
+    while (size < (uint64_t)(6 * m))
+        size <<= 1;
+    EdgeSlot *table = calloc(size, sizeof(EdgeSlot));
+    if (!table)
+        return -1;
+    for (int64_t t = 0; t < m; t++)
+        label[t] = t;
+    for (int64_t t = 0; t < m; t++)
+        for (int k = 0; k < 3; k++) {
+            int64_t a = F[3 * t + k], b = F[3 * t + (k + 1) % 3];
+            int64_t low = a < b ? a : b, high = a < b ? b : a;
+            uint64_t key = ((uint64_t)low << 32 ^ (uint64_t)high) + 1;
+            uint64_t h = key * 0x9E3779B97F4A7C15ull;
+            uint64_t slot = (h ^ (h >> 29)) & (size - 1);
+            while (table[slot].key && table[slot].key != key)
+                slot = (slot + 1) & (size - 1);
+            EdgeSlot *e = table + slot;
+            if (!e->key) {
+                e->key = key, e->face = t, e->forward = a < b, e->count = 1;
+            } else {
+                if (e->count == 1)
+                    e->other = t, e->other_forward = a < b;
+                e->count++;
+            }
+        }
+    for (uint64_t slot = 0; slot < size; slot++) {
+        EdgeSlot *e = table + slot;
+        if (e->key && e->count == 2 && e->forward != e->other_forward && !cut[e->face] && !cut[e->other]) {
+            int64_t x = root_of(label, e->face), y = root_of(label, e->other);
+            if (x != y)
+                label[x > y ? x : y] = x < y ? x : y;
+        }
+    }
+    for (int64_t t = 0; t < m; t++)
+        label[t] = root_of(label, t);
+    free(table);
+    return 0;
 }

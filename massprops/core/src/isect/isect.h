@@ -170,6 +170,10 @@ void arranged_free(Arranged *a);
  * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
  * status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified point.
  * 0, or -1 when memory ran out. */
+/* Per face, a label shared by the uncut faces joined across edges that exactly two faces use, once
+ * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
+int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
+
 int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
                   const double *qxy, int64_t k, int threads, int64_t *front, int8_t *status);
 

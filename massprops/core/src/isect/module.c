@@ -8,6 +8,7 @@
  *   orient3d_signs(P)                a batch of the predicate
  *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
  *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
+ *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -393,6 +394,44 @@ static PyObject *py_labels(PyObject *self, PyObject *args)
     return result;
 }
 
+static PyObject *py_patches(PyObject *self, PyObject *args)
+{
+    PyObject *fo, *co;
+    if (!PyArg_ParseTuple(args, "OO", &fo, &co))
+        return NULL;
+    Py_buffer fb, cb;
+    if (get_buffer(fo, &fb, 24, 0, "faces") < 0)
+        return NULL;
+    if (get_buffer(co, &cb, 1, 0, "cut") < 0) {
+        PyBuffer_Release(&fb);
+        return NULL;
+    }
+    Py_ssize_t m = fb.len / 24;
+    PyObject *out = cb.len == m ? PyBytes_FromStringAndSize(NULL, 8 * m) : NULL;
+    int code = 0;
+    const char *bad = cb.len != m ? "cut needs one entry per face" : NULL;
+    if (out) {
+        const int64_t *F = fb.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < 3 * m && !bad; i++)
+            if (F[i] < 0 || F[i] >= ((int64_t)1 << 31))
+                bad = "a face names a vertex out of range";
+        if (!bad)
+            code = patch_labels(F, m, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&fb), PyBuffer_Release(&cb);
+    if (bad || code < 0) {
+        Py_XDECREF(out);
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else
+            PyErr_NoMemory();
+        return NULL;
+    }
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -412,6 +451,9 @@ static PyMethodDef methods[] = {
     {"labels", py_labels, METH_VARARGS,
      "labels(vertices, faces, weights, query faces, query points (k, 2) or NaN, threads) -> (winding numbers\n"
      "int64, status int8: 0 answered, 1 handed back, 2 no certified point) (bytes) (arrange.c)"},
+    {"patches", py_patches, METH_VARARGS,
+     "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
+     "each way share a label (arrange.c)"},
     {NULL, NULL, 0, NULL},
 };
 
