@@ -568,7 +568,10 @@ class _Compiled:
         where none was certified): each is the point of the face's plane over
         these two coordinates, rebuilt exactly by :meth:`inner`.
     points, rounding : ndarray, shape (q, 3), float64
-        The new corners rounded once, and a certified bound on each coordinate's rounding.
+        The new corners rounded once, and a certified bound on each coordinate's rounding (the
+        filter's; :meth:`rounded` finds the exact ones).
+    definitions : ndarray, shape (q, 7), int64
+        How each new corner is defined (kind, then vertices or faces, then the projection's axes).
     """
 
     def __init__(self, geometry, faces, pairs):
@@ -576,8 +579,10 @@ class _Compiled:
         from ..core.threads import threads_for
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-        kind, status, drop, face, count, corners, inner, points, rounding = _extension().arrange(
-            geometry.vertices, faces, pairs, threads_for(faces.shape[0], _PARALLEL_ABOVE))
+        self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        kind, status, drop, face, count, corners, inner, points, rounding, definitions = _extension().arrange(
+            geometry.vertices, faces, pairs, self.threads)
+        self.definitions = np.frombuffer(definitions, dtype=np.int64).reshape(-1, 7)
         self.kind = np.frombuffer(kind, dtype=np.int8)
         self.status = np.frombuffer(status, dtype=np.int8)
         self.drop = np.frombuffer(drop, dtype=np.int8)
@@ -587,6 +592,16 @@ class _Compiled:
         self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
         self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
         self.rounding = np.frombuffer(rounding, dtype=np.float64).reshape(-1, 3)
+        self._geometry, self._faces = geometry, faces
+
+    def rounded(self, used):
+        """Points ``used`` (indices) and their rounding bounds, each rounded from its exact value (found with
+        exact expansions) where that certifies a smaller error than the filter's bound."""
+        from ..core.intersect import _extension
+        points, rounding = self.points[used].copy(), self.rounding[used].copy()
+        _extension().refine(self._geometry.vertices, self._faces, np.ascontiguousarray(self.definitions[used]),
+                            points, rounding, self.threads)
+        return points, rounding
 
     def inner(self, soup, t, cell, attempt, i, j):
         """Inner point ``attempt`` of cell ``cell`` of face ``t`` (homogeneous integers, w > 0), or None.
@@ -826,14 +841,17 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
     pieces = np.vstack(triangles)
     points, rounding = kept_corners.points()
-    if compiled is not None:
-        points = np.vstack([compiled.points, points])
-        rounding = np.vstack([compiled.rounding, rounding])
-    # only the new corners the kept pieces use, numbered in order
     n = soup.scaled.shape[0]
-    # (one corner for points that round alike with the same bound: the compiled cut lists a point once per cell)
     new = pieces >= n
     used = np.unique(pieces[new]) - n
+    if compiled is not None:
+        # the compiled corners the kept pieces use, rounded from their exact values
+        mine = used[used < compiled.points.shape[0]]
+        exact_points, exact_rounding = compiled.rounded(mine)
+        points = np.vstack([compiled.points, points])
+        rounding = np.vstack([compiled.rounding, rounding])
+        points[mine], rounding[mine] = exact_points, exact_rounding
+    # only the new corners the kept pieces use; one for points that round alike with the same bound
     rows, index = np.unique(np.hstack([points[used], rounding[used]]), axis=0, return_inverse=True)
     renumber = np.full(points.shape[0], -1, dtype=np.int64)
     renumber[used] = index.reshape(-1) + n

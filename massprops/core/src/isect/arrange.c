@@ -432,6 +432,12 @@ static int line_of(Face *c, int8_t kind, int64_t a, int64_t b)
 /* The point where lines la and lb of the face meet. */
 static int meet(Face *c, int la, int lb)
 {
+    /* the same two lines met before (in a neighbouring cell): the same point */
+    for (int q = 3; q < c->n_pts; q++) {
+        const Pt *p = c->pts + q;
+        if (p->kind != PT_V && ((p->l1 == la && p->l2 == lb) || (p->l1 == lb && p->l2 == la)))
+            return q;
+    }
     int k = new_pt(c);
     if (k < 0)
         return -1;
@@ -863,7 +869,10 @@ static int64_t corner_out(Face *c, Out *o, int k, Exact *exact)
         for (int d = 0; d < 3; d++)
             if (isfinite(q2[d]) && isfinite(err2[d]) && err2[d] <= err[d])
                 q[d] = q2[d], err[d] = err2[d];
-    if (out_push(&o->points, q, sizeof q) < 0 || out_push(&o->errors, err, sizeof err) < 0)
+    /* how the point is defined, for an exact rounding later (refine_points) of the points kept */
+    int64_t def[7] = {p->kind, p->a, p->b, p->c, p->d, c->i, c->j};
+    if (out_push(&o->points, q, sizeof q) < 0 || out_push(&o->errors, err, sizeof err) < 0
+        || out_push(&o->defs, def, sizeof def) < 0)
         return -1;
     p->out = o->n_points++;
     return c->s->n + p->out;
@@ -1060,7 +1069,7 @@ static int cut_face(Face *c, Out *o, int64_t t, Segment **segs_p, int *cap_segs,
             || out_push(&o->inner, inner, sizeof inner) < 0)
             return -1;
         for (int q = 0; q < cells[k].n; q++) {
-            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q], c->exact);
+            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q], NULL);
             if (id < 0)
                 goto back;
             if (out_push(&o->corners, &id, 8) < 0)
@@ -1073,6 +1082,7 @@ back:
     /* undo: sizes back (the buffers may have grown, which is harmless) */
     o->face.size = saved.face.size, o->count.size = saved.count.size, o->corners.size = saved.corners.size;
     o->inner.size = saved.inner.size, o->points.size = saved.points.size, o->errors.size = saved.errors.size;
+    o->defs.size = saved.defs.size;
     o->n_cells = saved.n_cells, o->n_points = saved.n_points;
     return 0;
 }
@@ -1254,7 +1264,7 @@ static void face_block(void *ctx, int worker, int64_t block)
 void arranged_free(Arranged *a)
 {
     buf_free(&a->face), buf_free(&a->count), buf_free(&a->corners);
-    buf_free(&a->inner), buf_free(&a->points), buf_free(&a->errors);
+    buf_free(&a->inner), buf_free(&a->points), buf_free(&a->errors), buf_free(&a->defs);
 }
 
 int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *pairs, int64_t p, int threads,
@@ -1317,7 +1327,7 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
         goto done;
     for (int w = 0; w < threads; w++) {
         job.scratch[w].s = &s;
-        job.scratch[w].exact = malloc(sizeof(Exact));      /* NULL: the filter's bounds are used */
+        job.scratch[w].exact = NULL;
         job.cells[w] = malloc(sizeof(CellRef) * 64);
         job.next[w] = malloc(sizeof(CellRef) * 64);
         job.cap_cells[w] = 64;
@@ -1340,7 +1350,8 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
             || (o->corners.size && out_push(&result->corners, o->corners.data, o->corners.size) < 0)
             || (o->inner.size && out_push(&result->inner, o->inner.data, o->inner.size) < 0)
             || (o->points.size && out_push(&result->points, o->points.data, o->points.size) < 0)
-            || (o->errors.size && out_push(&result->errors, o->errors.data, o->errors.size) < 0))
+            || (o->errors.size && out_push(&result->errors, o->errors.data, o->errors.size) < 0)
+            || (o->defs.size && out_push(&result->defs, o->defs.data, o->defs.size) < 0))
             goto done;
         result->n_cells += o->n_cells;
     }
@@ -1382,6 +1393,7 @@ typedef struct {
     int side;
     int64_t *begin;           /* side * side + 1 */
     int32_t *face;
+    uint8_t *needed;          /* per column: listed (a query may lie there); others are left empty */
 } Columns;
 
 typedef struct {
@@ -1393,6 +1405,8 @@ typedef struct {
     const int64_t *qface;
     const double *qxy;
     int64_t k;
+    double *approx;           /* 3 per query: about where its point is */
+    uint8_t *axes;            /* per query: the axes its ray may take (bits) */
     int64_t *front;
     int8_t *status;
     int memory;
@@ -1415,6 +1429,9 @@ static int columns_build(Labels *L, int axis)
         lo[0] = dmin(lo[0], L->lo[3 * t + a1]), hi[0] = dmax(hi[0], L->hi[3 * t + a1]);
         lo[1] = dmin(lo[1], L->lo[3 * t + a2]), hi[1] = dmax(hi[1], L->hi[3 * t + a2]);
     }
+    int32_t *range = malloc(sizeof(int32_t) * 4 * (L->m ? L->m : 1));
+    if (!range)
+        return -1;
     int side = (int)sqrt((double)L->m / 2.0);
     side = side < 1 ? 1 : (side > 1024 ? 1024 : side);
     for (;;) {
@@ -1426,40 +1443,66 @@ static int columns_build(Labels *L, int axis)
         c->side = side;
         int64_t entries = 0;
         for (int64_t t = 0; t < L->m; t++) {
-            int64_t w = column_of(c, 0, L->hi[3 * t + a1]) - column_of(c, 0, L->lo[3 * t + a1]) + 1;
-            int64_t h = column_of(c, 1, L->hi[3 * t + a2]) - column_of(c, 1, L->lo[3 * t + a2]) + 1;
-            entries += w * h;
+            int32_t *r = range + 4 * t;
+            r[0] = column_of(c, 0, L->lo[3 * t + a1]), r[1] = column_of(c, 0, L->hi[3 * t + a1]);
+            r[2] = column_of(c, 1, L->lo[3 * t + a2]), r[3] = column_of(c, 1, L->hi[3 * t + a2]);
+            entries += (int64_t)(r[1] - r[0] + 1) * (r[3] - r[2] + 1);
         }
-        if (side == 1 || entries <= 16 * L->m) {
-            c->begin = calloc((size_t)side * side + 1, sizeof(int64_t));
-            c->face = malloc(sizeof(int32_t) * (entries ? entries : 1));
-            if (!c->begin || !c->face)
-                return -1;
-            for (int pass = 0; pass < 2; pass++) {
-                for (int64_t t = 0; t < L->m; t++) {
-                    int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
-                    int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
-                    for (int x = x0; x <= x1; x++)
-                        for (int y = y0; y <= y1; y++) {
-                            int64_t cell = (int64_t)x * side + y;
-                            if (pass == 0)
-                                c->begin[cell + 1]++;
-                            else
-                                c->face[c->begin[cell]++] = (int32_t)t;
-                        }
-                }
-                if (pass == 0)
-                    for (int64_t q = 0; q < (int64_t)side * side; q++)
-                        c->begin[q + 1] += c->begin[q];
-                else {
-                    for (int64_t q = (int64_t)side * side; q > 0; q--)
-                        c->begin[q] = c->begin[q - 1];
-                    c->begin[0] = 0;
-                }
-            }
-            return 0;
+        if (side > 1 && entries > 16 * L->m) {
+            side = side / 2 > 1 ? side / 2 : 1;       /* large faces: fewer, larger columns */
+            continue;
         }
-        side = side / 2 > 1 ? side / 2 : 1;
+        c->begin = calloc((size_t)side * side + 1, sizeof(int64_t));
+        c->needed = calloc((size_t)side * side, 1);
+        if (!c->begin || !c->needed) {
+            free(range);
+            return -1;
+        }
+        /* only the columns about the queries' points are listed (a query reaching another is handed back) */
+        for (int64_t q = 0; q < L->k; q++) {
+            if (!(L->axes[q] >> axis & 1))
+                continue;
+            const double *p = L->approx + 3 * q;
+            double dx = 1e-6 * (hi[0] - lo[0]) + 1e-9 * fabs(p[a1]), dy = 1e-6 * (hi[1] - lo[1]) + 1e-9 * fabs(p[a2]);
+            int x0 = column_of(c, 0, p[a1] - dx), x1 = column_of(c, 0, p[a1] + dx);
+            int y0 = column_of(c, 1, p[a2] - dy), y1 = column_of(c, 1, p[a2] + dy);
+            for (int x = x0; x <= x1; x++)
+                for (int y = y0; y <= y1; y++)
+                    c->needed[(int64_t)x * side + y] = 1;
+        }
+        entries = 0;
+        for (int64_t t = 0; t < L->m; t++) {
+            const int32_t *r = range + 4 * t;
+            for (int x = r[0]; x <= r[1]; x++)
+                for (int y = r[2]; y <= r[3]; y++) {
+                    int64_t cell = (int64_t)x * side + y;
+                    if (c->needed[cell]) {
+                        c->begin[cell + 1]++;
+                        entries++;
+                    }
+                }
+        }
+        c->face = malloc(sizeof(int32_t) * (entries ? entries : 1));
+        if (!c->face) {
+            free(range);
+            return -1;
+        }
+        for (int64_t q = 0; q < (int64_t)side * side; q++)
+            c->begin[q + 1] += c->begin[q];
+        for (int64_t t = 0; t < L->m; t++) {
+            const int32_t *r = range + 4 * t;
+            for (int x = r[0]; x <= r[1]; x++)
+                for (int y = r[2]; y <= r[3]; y++) {
+                    int64_t cell = (int64_t)x * side + y;
+                    if (c->needed[cell])
+                        c->face[c->begin[cell]++] = (int32_t)t;
+                }
+        }
+        for (int64_t q = (int64_t)side * side; q > 0; q--)
+            c->begin[q] = c->begin[q - 1];
+        c->begin[0] = 0;
+        free(range);
+        return 0;
     }
 }
 
@@ -1689,6 +1732,10 @@ static void label_block(void *ctx, int64_t block)
         for (int gx = x0; gx <= x1 && !unsure; gx++)
             for (int gy = y0; gy <= y1 && !unsure; gy++) {
                 int64_t cell = (int64_t)gx * col->side + gy;
+                if (!col->needed[cell]) {
+                    unsure = 1;          /* a column not listed: the exact path counts this one */
+                    break;
+                }
                 for (int64_t e = col->begin[cell]; e < col->begin[cell + 1] && !unsure; e++) {
                     int64_t u = col->face[e];
                     const double *lo = L->lo + 3 * u, *hi = L->hi + 3 * u;
@@ -1729,19 +1776,38 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
             L.hi[3 * t + d] = dmax(a[d], dmax(b[d], c[d]));
         }
     }
-    /* columns only along the axes the queries' rays take (a face's least normal component) */
+    /* columns only along the axes the queries' rays take (a face's least normal component), listed only
+     * about the queries' points */
     int used[3] = {0, 0, 0};
+    L.approx = malloc(sizeof(double) * 3 * (k ? k : 1));
+    L.axes = malloc(k ? k : 1);
+    if (!L.approx || !L.axes)
+        goto done;
     for (int64_t q = 0; q < k; q++) {
         const double *a = lcorner(&L, qface[q], 0), *b = lcorner(&L, qface[q], 1), *c = lcorner(&L, qface[q], 2);
         double n[3];
         for (int d = 0; d < 3; d++) {
             int d1 = (d + 1) % 3, d2 = (d + 2) % 3;
-            n[d] = fabs((b[d1] - a[d1]) * (c[d2] - a[d2]) - (b[d2] - a[d2]) * (c[d1] - a[d1]));
+            n[d] = (b[d1] - a[d1]) * (c[d2] - a[d2]) - (b[d2] - a[d2]) * (c[d1] - a[d1]);
         }
         /* near ties: both axes may be taken */
-        double least = dmin(n[0], dmin(n[1], n[2]));
+        double least = dmin(fabs(n[0]), dmin(fabs(n[1]), fabs(n[2])));
+        L.axes[q] = 0;
         for (int d = 0; d < 3; d++)
-            used[d] |= n[d] <= least * (1.0 + 1e-6) + 1e-300;
+            if (fabs(n[d]) <= least * (1.0 + 1e-6) + 1e-300) {
+                used[d] = 1;
+                L.axes[q] |= (uint8_t)(1 << d);
+            }
+        int drop = 0;
+        for (int d = 1; d < 3; d++)
+            if (fabs(n[d]) > fabs(n[drop]))
+                drop = d;
+        int i = (drop + 1) % 3, j = (drop + 2) % 3;
+        double *p = L.approx + 3 * q, x = qxy[2 * q], y = qxy[2 * q + 1];
+        if (x != x || y != y)
+            x = (a[i] + b[i] + c[i]) / 3.0, y = (a[j] + b[j] + c[j]) / 3.0;
+        p[i] = x, p[j] = y;
+        p[drop] = n[drop] != 0.0 ? a[drop] - (n[i] * (x - a[i]) + n[j] * (y - a[j])) / n[drop] : a[drop];
     }
     for (int axis = 0; axis < 3; axis++)
         if (used[axis] && columns_build(&L, axis) < 0)
@@ -1750,8 +1816,8 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
     ok = 0;
 done:
     for (int axis = 0; axis < 3; axis++)
-        free(L.columns[axis].begin), free(L.columns[axis].face);
-    free(L.lo), free(L.hi);
+        free(L.columns[axis].begin), free(L.columns[axis].face), free(L.columns[axis].needed);
+    free(L.lo), free(L.hi), free(L.approx), free(L.axes);
     return ok;
 }
 
@@ -1766,52 +1832,105 @@ static int64_t root_of(int64_t *parent, int64_t x)
     return x;
 }
 
-typedef struct {
-    uint64_t key;             /* (low + 1) << 32 | high + 1 ... as one 64-bit number; 0 = empty */
-    int64_t face;             /* the first face; its edge ran low -> high when forward */
-    int32_t count;
-    int8_t forward, other_forward;
-    int64_t other;
-} EdgeSlot;
-
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label)
 {
-    uint64_t size = 16;
-    while (size < (uint64_t)(6 * m))
-        size <<= 1;
-    EdgeSlot *table = calloc(size, sizeof(EdgeSlot));
-    if (!table)
+    int64_t n = 0;
+    for (int64_t i = 0; i < 3 * m; i++)
+        n = F[i] + 1 > n ? F[i] + 1 : n;
+    int64_t *begin = calloc(n + 1, sizeof(int64_t));
+    int32_t *around = malloc(sizeof(int32_t) * (3 * m + 1));
+    if (!begin || !around) {
+        free(begin), free(around);
         return -1;
+    }
+    for (int64_t i = 0; i < 3 * m; i++)
+        begin[F[i] + 1]++;
+    for (int64_t v = 0; v < n; v++)
+        begin[v + 1] += begin[v];
+    for (int64_t i = 0; i < 3 * m; i++)
+        around[begin[F[i]]++] = (int32_t)(i / 3);
+    for (int64_t v = n; v > 0; v--)
+        begin[v] = begin[v - 1];
+    begin[0] = 0;
     for (int64_t t = 0; t < m; t++)
         label[t] = t;
-    for (int64_t t = 0; t < m; t++)
+    for (int64_t t = 0; t < m; t++) {
+        if (cut[t])
+            continue;
         for (int k = 0; k < 3; k++) {
             int64_t a = F[3 * t + k], b = F[3 * t + (k + 1) % 3];
-            int64_t low = a < b ? a : b, high = a < b ? b : a;
-            uint64_t key = ((uint64_t)low << 32 ^ (uint64_t)high) + 1;
-            uint64_t h = key * 0x9E3779B97F4A7C15ull;
-            uint64_t slot = (h ^ (h >> 29)) & (size - 1);
-            while (table[slot].key && table[slot].key != key)
-                slot = (slot + 1) & (size - 1);
-            EdgeSlot *e = table + slot;
-            if (!e->key) {
-                e->key = key, e->face = t, e->forward = a < b, e->count = 1;
-            } else {
-                if (e->count == 1)
-                    e->other = t, e->other_forward = a < b;
-                e->count++;
+            if (a > b)
+                continue;        /* the face across, if it pairs with this one, runs b -> a: seen from there */
+            /* the faces using edge ab either way: all are among a's faces */
+            int count = 0;
+            int64_t other = -1;
+            int reverse = 0;
+            for (int64_t e = begin[a]; e < begin[a + 1]; e++) {
+                int64_t f = around[e];
+                const int64_t *g = F + 3 * f;
+                for (int q = 0; q < 3; q++) {
+                    int64_t x = g[q], y = g[(q + 1) % 3];
+                    if ((x == a && y == b) || (x == b && y == a)) {
+                        count++;
+                        if (f != t)
+                            other = f, reverse = x == b;
+                    }
+                }
             }
-        }
-    for (uint64_t slot = 0; slot < size; slot++) {
-        EdgeSlot *e = table + slot;
-        if (e->key && e->count == 2 && e->forward != e->other_forward && !cut[e->face] && !cut[e->other]) {
-            int64_t x = root_of(label, e->face), y = root_of(label, e->other);
-            if (x != y)
-                label[x > y ? x : y] = x < y ? x : y;
+            if (count == 2 && other >= 0 && reverse && !cut[other]) {
+                int64_t x = root_of(label, t), y = root_of(label, other);
+                if (x != y)
+                    label[x > y ? x : y] = x < y ? x : y;
+            }
         }
     }
     for (int64_t t = 0; t < m; t++)
         label[t] = root_of(label, t);
-    free(table);
+    free(begin), free(around);
     return 0;
+}
+
+/* ---- exact rounding of the points kept ------------------------------------------------------------ */
+
+typedef struct {
+    Shared s;
+    const int64_t *defs;
+    double *q, *err;
+    int64_t k;
+} Refine;
+
+static void refine_block(void *ctx, int64_t block)
+{
+    Refine *r = ctx;
+    Exact *e = malloc(sizeof(Exact));
+    if (!e)
+        return;                              /* the filter's bounds stay */
+    int64_t end = (block + 1) * 64 < r->k ? (block + 1) * 64 : r->k;
+    Face c;
+    memset(&c, 0, sizeof(c));
+    c.s = &r->s;
+    for (int64_t x = block * 64; x < end; x++) {
+        const int64_t *d = r->defs + 7 * x;
+        Pt p;
+        memset(&p, 0, sizeof(p));
+        p.kind = (int8_t)d[0], p.a = d[1], p.b = d[2], p.c = d[3], p.d = d[4];
+        p.origin = p.kind == PT_TPI ? r->s.F[3 * p.a] : p.a;
+        c.i = (int)d[5], c.j = (int)d[6];
+        double q[3] = {r->q[3 * x], r->q[3 * x + 1], r->q[3 * x + 2]}, err[3];
+        if (exact_round(&c, &p, e, q, err) == 0)
+            for (int k = 0; k < 3; k++)
+                if (isfinite(q[k]) && isfinite(err[k]) && err[k] <= r->err[3 * x + k])
+                    r->q[3 * x + k] = q[k], r->err[3 * x + k] = err[k];
+    }
+    free(e);
+}
+
+void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64_t k, double *q, double *err,
+                   int threads)
+{
+    Refine r;
+    memset(&r, 0, sizeof(r));
+    r.s.V = V, r.s.F = F;
+    r.defs = defs, r.q = q, r.err = err, r.k = k;
+    parallel_blocks(threads, (k + 63) / 64, refine_block, &r);
 }

@@ -155,7 +155,7 @@ typedef struct {
 } Buf;
 
 typedef struct {
-    Buf face, count, corners, inner, points, errors;   /* int64, int64, int64, 12 double, 3, 3 per item */
+    Buf face, count, corners, inner, points, errors, defs;   /* int64, int64, int64, 12 double, 3, 3, 7 int64 */
     int64_t n_cells, n_points;
 } Arranged;
 
@@ -170,6 +170,11 @@ void arranged_free(Arranged *a);
  * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
  * status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified point.
  * 0, or -1 when memory ran out. */
+/* Each point (defined by defs, 7 int64 as arrange_cut gives them) rounded again from its exact value,
+ * where that gives a smaller certified error: q, err (3 each) updated in place. */
+void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64_t k, double *q, double *err,
+                   int threads);
+
 /* Per face, a label shared by the uncut faces joined across edges that exactly two faces use, once
  * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);

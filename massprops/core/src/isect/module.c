@@ -9,6 +9,7 @@
  *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
  *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
+ *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -327,9 +328,9 @@ static PyObject *py_arrange(PyObject *self, PyObject *args)
             PyErr_NoMemory();
         else
         {
-            result = Py_BuildValue("NNNNNNNNN", kind, status, drop, buf_bytes(&out.face), buf_bytes(&out.count),
+            result = Py_BuildValue("NNNNNNNNNN", kind, status, drop, buf_bytes(&out.face), buf_bytes(&out.count),
                                    buf_bytes(&out.corners), buf_bytes(&out.inner), buf_bytes(&out.points),
-                                   buf_bytes(&out.errors));
+                                   buf_bytes(&out.errors), buf_bytes(&out.defs));
             kind = status = drop = NULL;          /* taken by Py_BuildValue, also when it fails */
         }
     }
@@ -432,6 +433,55 @@ static PyObject *py_patches(PyObject *self, PyObject *args)
     return out;
 }
 
+static PyObject *py_refine(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *dobj, *qo, *eo;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &dobj, &qo, &eo, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, db, qb, eb;
+    if (get_three(vo, fo, dobj, &vb, &fb, &db, 56, 0, "definitions") < 0)
+        return NULL;
+    if (get_buffer(qo, &qb, 24, 1, "points") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db);
+        return NULL;
+    }
+    if (get_buffer(eo, &eb, 24, 1, "errors") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
+        return NULL;
+    }
+    Py_ssize_t k = db.len / 56, m = fb.len / 24, n = vb.len / 24;
+    const char *bad = qb.len / 24 != k || eb.len / 24 != k ? "one point and one error per definition" : NULL;
+    if (!bad) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *d = db.buf;
+        for (Py_ssize_t i = 0; i < k && !bad; i++) {
+            int64_t kind = d[7 * i];
+            for (int j = 1; j <= (kind == 2 ? 4 : 3) && !bad; j++) {
+                /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
+                int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
+                if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
+                    bad = "a point definition names something that does not exist";
+            }
+            if (!bad && (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0
+                         || d[7 * i + 6] > 2))
+                bad = "a point definition is not one the arrangement makes";
+        }
+        if (!bad)
+            refine_points(vb.buf, fb.buf, db.buf, k, qb.buf, eb.buf, threads);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
+    PyBuffer_Release(&eb);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -454,6 +504,9 @@ static PyMethodDef methods[] = {
     {"patches", py_patches, METH_VARARGS,
      "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
      "each way share a label (arrange.c)"},
+    {"refine", py_refine, METH_VARARGS,
+     "refine(vertices, faces, definitions (k, 7), points (k, 3), errors (k, 3), threads): the points rounded\n"
+     "again from their exact values where that certifies a smaller error (in place) (arrange.c)"},
     {NULL, NULL, 0, NULL},
 };
 
