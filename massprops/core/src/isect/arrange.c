@@ -1434,6 +1434,8 @@ static int columns_build(Labels *L, int axis)
         return -1;
     int side = (int)sqrt((double)L->m / 2.0);
     side = side < 1 ? 1 : (side > 1024 ? 1024 : side);
+    if (L->k <= 32)
+        side = 1;                 /* a few queries: each scans every face's box, cheaper than columns */
     for (;;) {
         for (int d = 0; d < 2; d++) {
             c->origin[d] = L->m ? lo[d] : 0.0;
