@@ -11,19 +11,24 @@ module finds the faces that bound it:
    lists every pair of faces that meet beyond what they share.
 2. **Cuts.** Each face of a pair is cut along its intersection segments with
    the others (for two faces in one plane, along the other's edges): convex
-   cells, split where a segment crosses them.  Intersection points are exact
-   rationals (homogeneous integer coordinates on the vertices' power-of-two
-   grid): no decision uses a rounded one.
+   cells, split where a segment crosses them.  The compiled core cuts first
+   (:class:`_Compiled`: intersection points kept implicit, every sign settled
+   by a certified filter, symbolically or exactly); the faces it hands back
+   are cut here, where intersection points are exact rationals (homogeneous
+   integer coordinates on the vertices' power-of-two grid).  No decision
+   uses a rounded point.  ``arrange(..., compiled=False)`` cuts every face
+   here: the reference.
 3. **Labels.** Each cell, and each patch of uncut faces joined across edges
    that exactly two faces share, gets the winding numbers on its two sides
    from one exact ray count (Simulation of Simplicity for the ray, so no ray
-   direction is ever special); the other side follows from the net weight of
+   direction is ever special; counted in the compiled core where its filter
+   settles every face the ray may meet, here otherwise); the other side follows from the net weight of
    the faces that lie on the cell.  A piece bounds ``{w > 0}`` exactly when
    one side has ``w > 0`` and the other not; it is taken once (the lowest of
    coincident faces owns it), turned to face out of the solid.
 4. **Integrals.**  Uncut pieces are whole input faces; cut pieces are
    triangulated cells whose new corners (the intersection points) are
-   rounded once, to nearest.  Both go to the compiled kernel with its
+   rounded once, each with its rounding error found exactly.  Both go to the compiled kernel with its
    bounds, widened by the volume the rounded corners could sweep
    (:func:`massprops.mesh.solid.swept_volume` with an apex: the cut pieces
    need not share their corners, so each triangle is bounded on its own).
