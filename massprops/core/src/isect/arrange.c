@@ -1407,6 +1407,7 @@ typedef struct {
     int64_t k;
     double *approx;           /* 3 per query: about where its point is */
     uint8_t *axes;            /* per query: the axes its ray may take (bits) */
+    int axis;                 /* the rays' common axis */
     int64_t *front;
     int8_t *status;
     int memory;
@@ -1648,6 +1649,18 @@ static int64_t ahead(const Labels *L, int64_t t, int64_t u, const Pt *p, Query *
     return -side * facing > 0 ? L->weight[u] * facing : 0;
 }
 
+/* The ray's axis for a query on face t: the common one (L->axis) unless t's normal lies along it, then
+ * the next axis on which it leans (exact signs). */
+static int ray_axis(const Labels *L, int64_t t)
+{
+    for (int k = 0; k < 3; k++) {
+        int axis = (L->axis + k) % 3;
+        if (normal_sign(L, t, (axis + 1) % 3) != 0 || normal_sign(L, t, (axis + 2) % 3) != 0)
+            return axis;
+    }
+    return L->axis;               /* never: the face has non-zero area */
+}
+
 static void label_block(void *ctx, int64_t block)
 {
     Labels *L = ctx;
@@ -1689,28 +1702,9 @@ static void label_block(void *ctx, int64_t block)
             }
         } else if (!make_proj_n(&p, normal, a, drop, i, j, x, y))
             continue;
-        /* the ray: along the axis t's normal leans on least (exactly as the exact path) */
-        double mag[3];
-        for (int k = 0; k < 3; k++)
-            mag[k] = fabs(normal[k].v);
-        int axis = 0;
-        for (int k = 1; k < 3; k++)
-            if (mag[k] < mag[axis])
-                axis = k;
-        /* the exact path takes the first least |n_k|: a zero one if any (exact signs), else a near tie
-         * is handed back */
-        int tie = 0, zero = -1;
-        for (int k = 2; k >= 0; k--)
-            if (normal_sign(L, t, k) == 0)
-                zero = k;
-        if (zero >= 0)
-            axis = zero;
-        else
-            for (int k = 0; k < 3; k++)
-                if (k != axis && !(mag[k] - normal[k].e > mag[axis] + normal[axis].e))
-                    tie = 1;
-        if (tie)
-            continue;
+        /* the ray: along one axis for every query where it can be (fewer columns to list).  Any axis
+         * gives the same winding number; the perturbation needs t's normal to lean on an axis after it. */
+        int axis = ray_axis(L, t);
         int a1 = (axis + 1) % 3;
         int sigma = normal_sign(L, t, a1) ? normal_sign(L, t, a1) : normal_sign(L, t, (axis + 2) % 3);
         const Columns *col = L->columns + axis;
@@ -1778,9 +1772,19 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
             L.hi[3 * t + d] = dmax(a[d], dmax(b[d], c[d]));
         }
     }
-    /* columns only along the axes the queries' rays take (a face's least normal component), listed only
-     * about the queries' points */
+    /* columns only along the axes the queries' rays take, listed only about the queries' points; the
+     * common axis is the one the faces' box is thinnest along (rays cross fewer faces, as a rule) */
     int used[3] = {0, 0, 0};
+    {
+        double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int64_t t = 0; t < m; t++)
+            for (int d = 0; d < 3; d++)
+                low[d] = dmin(low[d], L.lo[3 * t + d]), high[d] = dmax(high[d], L.hi[3 * t + d]);
+        L.axis = 0;
+        for (int d = 1; d < 3; d++)
+            if (high[d] - low[d] < high[L.axis] - low[L.axis])
+                L.axis = d;
+    }
     L.approx = malloc(sizeof(double) * 3 * (k ? k : 1));
     L.axes = malloc(k ? k : 1);
     if (!L.approx || !L.axes)
@@ -1792,14 +1796,8 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
             int d1 = (d + 1) % 3, d2 = (d + 2) % 3;
             n[d] = (b[d1] - a[d1]) * (c[d2] - a[d2]) - (b[d2] - a[d2]) * (c[d1] - a[d1]);
         }
-        /* near ties: both axes may be taken */
-        double least = dmin(fabs(n[0]), dmin(fabs(n[1]), fabs(n[2])));
-        L.axes[q] = 0;
-        for (int d = 0; d < 3; d++)
-            if (fabs(n[d]) <= least * (1.0 + 1e-6) + 1e-300) {
-                used[d] = 1;
-                L.axes[q] |= (uint8_t)(1 << d);
-            }
+        L.axes[q] = (uint8_t)(1 << ray_axis(&L, qface[q]));
+        used[ray_axis(&L, qface[q])] = 1;
         int drop = 0;
         for (int d = 1; d < 3; d++)
             if (fabs(n[d]) > fabs(n[drop]))
