@@ -619,6 +619,13 @@ static void x_compress(Xp *x)
 
 static void x_of(Xp *x, double a) { x->n = a != 0.0, x->h[0] = a; }
 
+/* dst = src (only the components used: an Xp is large) */
+static void x_copy(Xp *dst, const Xp *src)
+{
+    dst->n = src->n;
+    memcpy(dst->h, src->h, sizeof(double) * src->n);
+}
+
 static void x_diff(Xp *x, double a, double b)
 {
     double s, e;
@@ -792,7 +799,7 @@ static int exact_round(const Face *c, const Pt *p, Exact *e, double *q, double *
         /* N = (origin - q) W + D: the error x - q = N / W */
         for (int pass = 0; pass < 2; pass++) {
             x_diff(&one, origin[d], q[d]);
-            e->N = e->D[d];
+            x_copy(&e->N, e->D + d);
             if (x_mul(&e->N, &e->W, &one, 1.0, 1) < 0)
                 return -1;
             double step = x_top(&e->N) / w;
@@ -1544,7 +1551,7 @@ static int query_exact(const Labels *L, Query *q)
         return -1;
     const double *a = lcorner(L, q->t, 0);
     Xp v;
-    q->W = e->n1[q->drop];
+    x_copy(&q->W, e->n1 + q->drop);
     x_of(&v, q->x);
     if (x_mul(q->X + q->i, e->n1 + q->drop, &v, 1.0, 0) < 0)
         return -1;
