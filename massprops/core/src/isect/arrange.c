@@ -21,9 +21,13 @@
  * exact rational path.  So every cell returned is the one the exact path would find.
  *
  * Cells are returned with their corners (input vertices by index, new points rounded once with
- * a certified bound on each coordinate's error) and, for the labels, points strictly inside:
- * PROJ points over double (x, y), certified inside every edge, which the caller rebuilds
- * exactly in rationals.
+ * a certified bound on each coordinate's error, and their definitions, so that the points the
+ * solid keeps are rounded again from their exact values: refine_points, with error-free
+ * expansions) and, for the labels, points strictly inside: PROJ points over double (x, y),
+ * certified inside every edge, which the caller rebuilds exactly in rationals.
+ *
+ * Also here: the labels' ray counts (label_queries: winding numbers at those points, by the exact
+ * path's rules, with the same filter and hand-back) and the patches of uncut faces (patch_labels).
  */
 #include "isect.h"
 
@@ -306,7 +310,6 @@ typedef struct {
     int *c_pt, *c_ln;
     int8_t *c_in;
     int n_c, cap_c;
-    struct Exact *exact;      /* scratch for exact rounding (NULL: the filter's bounds) */
 } Face;
 
 static int face_reserve(void **data, int *cap, int want, size_t item)
@@ -681,7 +684,7 @@ static int x_det2(Xp *out, const Xp *a, const Xp *b, const Xp *c, const Xp *d)
 }
 
 /* Scratch for the exact rounding of one point (large: one per thread, on the heap). */
-typedef struct Exact {
+typedef struct {
     Xp u[3], w[3], n1[3], n2[3], n3[3], c[3], t, t2, W, D[3], N;
 } Exact;
 
@@ -848,7 +851,7 @@ static int out_push(Buf *g, const void *item, size_t bytes)
 #define N_INNER 6
 
 /* The corner's index among the returned points (input vertices: their own index). */
-static int64_t corner_out(Face *c, Out *o, int k, Exact *exact)
+static int64_t corner_out(Face *c, Out *o, int k)
 {
     Pt *p = c->pts + k;
     if (p->kind == PT_V)
@@ -871,11 +874,6 @@ static int64_t corner_out(Face *c, Out *o, int k, Exact *exact)
         if (!isfinite(q[d]) || !isfinite(err[d]))
             return -1;
     }
-    double q2[3] = {q[0], q[1], q[2]}, err2[3];
-    if (exact && exact_round(c, p, exact, q2, err2) == 0)
-        for (int d = 0; d < 3; d++)
-            if (isfinite(q2[d]) && isfinite(err2[d]) && err2[d] <= err[d])
-                q[d] = q2[d], err[d] = err2[d];
     /* how the point is defined, for an exact rounding later (refine_points) of the points kept */
     int64_t def[7] = {p->kind, p->a, p->b, p->c, p->d, c->i, c->j};
     if (out_push(&o->points, q, sizeof q) < 0 || out_push(&o->errors, err, sizeof err) < 0
@@ -1076,7 +1074,7 @@ static int cut_face(Face *c, Out *o, int64_t t, Segment **segs_p, int *cap_segs,
             || out_push(&o->inner, inner, sizeof inner) < 0)
             return -1;
         for (int q = 0; q < cells[k].n; q++) {
-            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q], NULL);
+            int64_t id = corner_out(c, o, c->c_pt[cells[k].start + q]);
             if (id < 0)
                 goto back;
             if (out_push(&o->corners, &id, 8) < 0)
@@ -1334,7 +1332,6 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
         goto done;
     for (int w = 0; w < threads; w++) {
         job.scratch[w].s = &s;
-        job.scratch[w].exact = NULL;
         job.cells[w] = malloc(sizeof(CellRef) * 64);
         job.next[w] = malloc(sizeof(CellRef) * 64);
         job.cap_cells[w] = 64;
@@ -1371,7 +1368,7 @@ done:
     if (job.scratch)
         for (int w = 0; w < threads; w++) {
             Face *c = job.scratch + w;
-            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in), free(c->exact);
+            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in);
             if (job.segs)
                 free(job.segs[w]);
             if (job.cells)
