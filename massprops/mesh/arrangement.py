@@ -600,12 +600,17 @@ class _Compiled:
         self._geometry, self._faces = geometry, faces
 
     def rounded(self, used):
-        """Points ``used`` (indices) and their rounding bounds, each rounded from its exact value (found with
-        exact expansions) where that certifies a smaller error than the filter's bound."""
+        """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
+        exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
+        is within half of one; most intersections of an edge with a plane are already within one)."""
         from ..core.intersect import _extension
         points, rounding = self.points[used].copy(), self.rounding[used].copy()
-        _extension().refine(self._geometry.vertices, self._faces, np.ascontiguousarray(self.definitions[used]),
-                            points, rounding, self.threads)
+        loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
+        if loose.size:
+            again, bounds = points[loose], rounding[loose]
+            _extension().refine(self._geometry.vertices, self._faces,
+                                np.ascontiguousarray(self.definitions[used[loose]]), again, bounds, self.threads)
+            points[loose], rounding[loose] = again, bounds
         return points, rounding
 
     def inner(self, soup, t, cell, attempt, i, j):
