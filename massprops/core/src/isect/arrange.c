@@ -310,7 +310,11 @@ typedef struct {
     int *c_pt, *c_ln;
     int8_t *c_in;
     int n_c, cap_c;
+    struct Exact *exact;      /* scratch for signs the filter leaves open (NULL: such a face is handed back) */
 } Face;
+
+/* The sign of a point against a line from exact expansions: -1, 0, 1, or 2 when it cannot be found. */
+static int exact_side(Face *c, const Pt *p, const Ln *l);
 
 static int face_reserve(void **data, int *cap, int want, size_t item)
 {
@@ -366,8 +370,10 @@ static int side(Face *c, const Pt *p, int li)
             fx value = fx_sub(fx_mul(p->s[0], plane_level(s, l->a, y)), fx_mul(p->s[1], plane_level(s, l->a, x)));
             num = fx_sign(value);
             if (num == 0) {
-                c->fail = 1;
-                return 0;
+                int exact = exact_side(c, p, l);
+                if (exact == 2)
+                    c->fail = 1;
+                return exact == 2 ? 0 : exact;
             }
         }
         return p->flip ? -num : num;
@@ -392,7 +398,11 @@ static int side(Face *c, const Pt *p, int li)
         if (p->kind == PT_LPI && p->c == c->t && l->kind == LN_E
             && orient3d(vx(s, p->a), vx(s, p->b), vx(s, l->a), vx(s, l->b)) == 0)
             return 0;
-        c->fail = 1;
+        sign = exact_side(c, p, l);
+        if (sign == 2) {
+            c->fail = 1;
+            sign = 0;
+        }
     }
     return sign;
 }
@@ -684,7 +694,7 @@ static int x_det2(Xp *out, const Xp *a, const Xp *b, const Xp *c, const Xp *d)
 }
 
 /* Scratch for the exact rounding of one point (large: one per thread, on the heap). */
-typedef struct {
+typedef struct Exact {
     Xp u[3], w[3], n1[3], n2[3], n3[3], c[3], t, t2, W, D[3], N;
 } Exact;
 
@@ -818,6 +828,57 @@ static int exact_round(const Face *c, const Pt *p, Exact *e, double *q, double *
         }
     }
     return 0;
+}
+
+static int exact_side(Face *c, const Pt *p, const Ln *l)
+{
+    Exact *e = c->exact;
+    if (!e || p->kind == PT_PROJ || p->kind == PT_V || exact_parts(c, p, e) < 0)
+        return 2;
+    const Shared *s = c->s;
+    int w = (x_top(&e->W) > 0) - (x_top(&e->W) < 0);
+    if (w == 0)
+        return 2;
+    const double *o = vx(s, p->origin);
+    Xp v;
+    /* X = o W + D (homogeneous, the sign of W apart) */
+    for (int k = 0; k < 3; k++) {
+        x_of(&v, o[k]);
+        if (x_mul(e->c + k, &e->W, &v, 1.0, 0) < 0 || x_add(e->c + k, e->D + k, 1.0) < 0)
+            return 2;
+    }
+    if (l->kind == LN_U) {
+        /* n . (X - a W) */
+        const double *a = corner(s, l->a, 0);
+        if (x_normal(s, l->a, e, e->n2) < 0)
+            return 2;
+        e->N.n = 0;
+        for (int k = 0; k < 3; k++) {
+            x_copy(&e->t2, e->c + k);
+            x_of(&v, a[k]);
+            if (x_mul(&e->t2, &e->W, &v, -1.0, 1) < 0 || x_mul(&e->N, e->n2 + k, &e->t2, 1.0, 1) < 0)
+                return 2;
+        }
+    } else {
+        /* (S - R)_i (X_j - R_j W) - (S - R)_j (X_i - R_i W) */
+        const double *r = vx(s, l->a), *q = vx(s, l->b);
+        int i = c->i, j = c->j;
+        Xp *xi = e->n3, *xj = e->n3 + 1, *di = e->n3 + 2;
+        x_copy(xi, e->c + i);
+        x_of(&v, r[i]);
+        if (x_mul(xi, &e->W, &v, -1.0, 1) < 0)
+            return 2;
+        x_copy(xj, e->c + j);
+        x_of(&v, r[j]);
+        if (x_mul(xj, &e->W, &v, -1.0, 1) < 0)
+            return 2;
+        x_diff(di, q[i], r[i]);
+        x_diff(&e->t2, q[j], r[j]);
+        if (x_det2(&e->N, di, xj, &e->t2, xi) < 0)
+            return 2;
+    }
+    double top = x_top(&e->N);
+    return ((top > 0) - (top < 0)) * w;
 }
 
 /* ---- output of one block of faces --------------------------------------------------------------- */
@@ -1332,6 +1393,7 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
         goto done;
     for (int w = 0; w < threads; w++) {
         job.scratch[w].s = &s;
+        job.scratch[w].exact = malloc(sizeof(Exact));      /* NULL: open signs hand the face back */
         job.cells[w] = malloc(sizeof(CellRef) * 64);
         job.next[w] = malloc(sizeof(CellRef) * 64);
         job.cap_cells[w] = 64;
@@ -1368,7 +1430,7 @@ done:
     if (job.scratch)
         for (int w = 0; w < threads; w++) {
             Face *c = job.scratch + w;
-            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in);
+            free(c->pts), free(c->lns), free(c->c_pt), free(c->c_ln), free(c->c_in), free(c->exact);
             if (job.segs)
                 free(job.segs[w]);
             if (job.cells)
