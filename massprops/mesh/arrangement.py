@@ -639,33 +639,34 @@ class _Compiled:
         return _reduced(*p, n_drop * denominator)
 
     def label(self, soup, pieces, first_patch, labels):
-        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut and patches
-        whose face has no coplanar partner (the net weight on them is their own)."""
-        chosen, faces, points = [], [], []
+        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
+        weight of the faces in their plane that hold their inner point) and patches."""
+        chosen, faces, points, partners = [], [], [], []
         nan = (math.nan, math.nan)
         inside = self.inside
-        for k, (t, cell, _, partners, _, _) in enumerate(pieces):
-            if partners:
-                continue
+        for k, (t, cell, _, its_partners, _, _) in enumerate(pieces):
             if k >= first_patch:
-                chosen.append(k), faces.append(t), points.append(nan)
+                chosen.append(k), faces.append(t), points.append(nan), partners.append(())
             elif not isinstance(cell, list):
-                chosen.append(k), faces.append(t), points.append(inside[cell, 0])
+                chosen.append(k), faces.append(t), points.append(inside[cell, 0]), partners.append(its_partners)
         if not chosen:
             return
         from ..core.intersect import _extension, _PARALLEL_ABOVE
         from ..core.threads import threads_for
-        front, status = _extension().labels(
+        starts = np.zeros(len(chosen) + 1, dtype=np.int64)
+        starts[1:] = np.cumsum([len(p) for p in partners])
+        flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
+        front, net, owned, status = _extension().labels(
             soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
             np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64),
-            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)),
+            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)), starts, flat,
             threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
-        front = np.frombuffer(front, dtype=np.int64)
         answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
-        weights = soup.weights
-        for q, w in zip(answered.tolist(), front[answered].tolist()):
-            k = chosen[q]
-            labels[k] = (w, int(weights[pieces[k][0]]), True)
+        fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()
+        nets = np.frombuffer(net, dtype=np.int64)[answered].tolist()
+        owns = np.frombuffer(owned, dtype=np.int8)[answered].tolist()
+        for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
+            labels[chosen[q]] = (w, n, bool(o))
 
     def fans(self, chosen):
         """Triangles (k, 3) fanning the cells ``(c, outward)`` chosen, reversed where not outward."""
@@ -677,10 +678,11 @@ class _Compiled:
         step = np.arange(owner.size) - np.repeat(np.cumsum(fan) - fan, fan) + 1   # 1 .. count - 2
         first = start[owner]
         triangles = np.stack([first, first + step, first + step + 1], axis=1)
-        ids = self.corners[triangles]
+        # a cell turned inward is fanned from its last corner, as the exact path's reversed polygon
         flip = ~outward[owner]
-        ids[flip] = ids[flip][:, ::-1]
-        return ids
+        last = (start + count - 1)[owner][flip]
+        triangles[flip] = np.stack([last, last - step[flip], last - step[flip] - 1], axis=1)
+        return self.corners[triangles]
 
 
 # -- the arrangement -----------------------------------------------------------------------------

@@ -1474,8 +1474,9 @@ typedef struct {
     double *approx;           /* 3 per query: about where its point is */
     uint8_t *axes;            /* per query: the axes its ray may take (bits) */
     int axis;                 /* the rays' common axis */
-    int64_t *front;
-    int8_t *status;
+    const int64_t *pbegin, *plist;      /* per query: the faces in its face's plane that meet it (CSR) */
+    int64_t *front, *net;
+    int8_t *status, *owned;
     int memory;
 } Labels;
 
@@ -1813,19 +1814,52 @@ static void label_block(void *ctx, int64_t block)
             }
         if (unsure)
             continue;
+        /* the net weight on the piece: its face's, and that of every face in its plane that holds the
+         * point strictly inside (as the exact path's _contains); the piece is owned when those are all
+         * numbered after its face */
+        int64_t net = L->weight[t];
+        int owned = 1;
+        int sign_t = normal_sign(L, t, drop);
+        for (int64_t e = L->pbegin[q]; e < L->pbegin[q + 1] && !unsure; e++) {
+            int64_t u = L->plist[e];
+            const double *cu[3] = {lcorner(L, u, 0), lcorner(L, u, 1), lcorner(L, u, 2)};
+            int sense = orient2d(cu[0][i], cu[0][j], cu[1][i], cu[1][j], cu[2][i], cu[2][j]);
+            int inside = sense != 0;
+            for (int k = 0; k < 3 && inside && !unsure; k++) {
+                const double *x1 = cu[k], *y1 = cu[(k + 1) % 3];
+                fx xa = fx_sub(fx_mul(fx_c(x1[i]), p.W), p.X[i]), xb = fx_sub(fx_mul(fx_c(x1[j]), p.W), p.X[j]);
+                fx ya = fx_sub(fx_mul(fx_c(y1[i]), p.W), p.X[i]), yb = fx_sub(fx_mul(fx_c(y1[j]), p.W), p.X[j]);
+                int o = fx_sign(fx_sub(fx_mul(xa, yb), fx_mul(xb, ya)));
+                if (o == 0)
+                    o = exact_turn(L, &query, x1, y1, i, j);
+                if (o == 2)
+                    unsure = 1;
+                inside = o * sense > 0;
+            }
+            if (inside && !unsure) {
+                net += L->weight[u] * normal_sign(L, u, drop) * sign_t;
+                owned = owned && u > t;
+            }
+        }
+        if (unsure)
+            continue;
         L->front[q] = total;
+        L->net[q] = net;
+        L->owned[q] = (int8_t)owned;
         L->status[q] = 0;
     }
     free(query.e);
 }
 
 int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
-                  const double *qxy, int64_t k, int threads, int64_t *front, int8_t *status)
+                  const double *qxy, const int64_t *pbegin, const int64_t *plist, int64_t k, int threads,
+                  int64_t *front, int64_t *net, int8_t *owned, int8_t *status)
 {
     Labels L;
     memset(&L, 0, sizeof(L));
     L.V = V, L.F = F, L.weight = weight, L.m = m, L.qface = qface, L.qxy = qxy, L.k = k;
-    L.front = front, L.status = status;
+    L.pbegin = pbegin, L.plist = plist;
+    L.front = front, L.net = net, L.owned = owned, L.status = status;
     int ok = -1;
     L.lo = malloc(sizeof(double) * 3 * (m ? m : 1));
     L.hi = malloc(sizeof(double) * 3 * (m ? m : 1));

@@ -166,10 +166,6 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
                 int8_t *kind, int8_t *status, int8_t *drop, Arranged *result);
 void arranged_free(Arranged *a);
 
-/* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
- * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
- * status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified point.
- * 0, or -1 when memory ran out. */
 /* Each point (defined by defs, 7 int64 as arrange_cut gives them) rounded again from its exact value,
  * where that gives a smaller certified error: q, err (3 each) updated in place. */
 void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64_t k, double *q, double *err,
@@ -179,7 +175,14 @@ void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64
  * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
 
+/* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
+ * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
+ * the net weight of the faces on the point (its face and those of plist[pbegin[q] .. pbegin[q + 1]),
+ * faces in its plane, that hold it strictly inside) and whether all of those come after its face
+ * (owned); status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified
+ * point.  0, or -1 when memory ran out. */
 int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
-                  const double *qxy, int64_t k, int threads, int64_t *front, int8_t *status);
+                  const double *qxy, const int64_t *pbegin, const int64_t *plist, int64_t k, int threads,
+                  int64_t *front, int64_t *net, int8_t *owned, int8_t *status);
 
 #endif

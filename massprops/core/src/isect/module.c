@@ -346,52 +346,61 @@ static PyObject *py_arrange(PyObject *self, PyObject *args)
 
 static PyObject *py_labels(PyObject *self, PyObject *args)
 {
-    PyObject *vo, *fo, *wo, *qo, *xo;
+    PyObject *vo, *fo, *wo, *qo, *xo, *bo, *lo;
     int threads;
-    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &wo, &qo, &xo, &threads))
+    if (!PyArg_ParseTuple(args, "OOOOOOOi", &vo, &fo, &wo, &qo, &xo, &bo, &lo, &threads))
         return NULL;
     threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
-    Py_buffer vb, fb, wb, qb, xb;
+    Py_buffer vb, fb, wb, qb, xb, bb, lb;
     if (get_three(vo, fo, wo, &vb, &fb, &wb, 8, 0, "weights") < 0)
         return NULL;
-    if (get_buffer(qo, &qb, 8, 0, "query faces") < 0) {
+    if (get_three(qo, xo, bo, &qb, &xb, &bb, 8, 0, "partner starts") < 0) {
         PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb);
         return NULL;
     }
-    if (get_buffer(xo, &xb, 16, 0, "query points") < 0) {
-        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb), PyBuffer_Release(&qb);
+    if (get_buffer(lo, &lb, 8, 0, "partners") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb);
+        PyBuffer_Release(&qb), PyBuffer_Release(&xb), PyBuffer_Release(&bb);
         return NULL;
     }
-    Py_ssize_t m = fb.len / 24, n = vb.len / 24, k = qb.len / 8;
-    PyObject *front = PyBytes_FromStringAndSize(NULL, 8 * k), *status = PyBytes_FromStringAndSize(NULL, k);
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24, k = qb.len / 8, np_ = lb.len / 8;
+    PyObject *front = PyBytes_FromStringAndSize(NULL, 8 * k), *net = PyBytes_FromStringAndSize(NULL, 8 * k);
+    PyObject *owned = PyBytes_FromStringAndSize(NULL, k), *status = PyBytes_FromStringAndSize(NULL, k);
     PyObject *result = NULL;
     const char *bad = wb.len / 8 != m ? "weights need one entry per face"
-                      : xb.len / 16 != k ? "query points need one per query face" : NULL;
+                      : xb.len / 16 != k ? "query points need one per query face"
+                      : bb.len / 8 != k + 1 ? "partner starts need one per query face and one more" : NULL;
     int code = 0;
-    if (front && status && !bad) {
+    if (front && net && owned && status && !bad) {
         Py_BEGIN_ALLOW_THREADS
         bad = bad_faces(fb.buf, m, n);
-        const int64_t *q = qb.buf;
+        const int64_t *q = qb.buf, *b = bb.buf, *l = lb.buf;
         for (Py_ssize_t i = 0; i < k && !bad; i++)
-            if (q[i] < 0 || q[i] >= m)
-                bad = "a query names a face that does not exist";
+            if (q[i] < 0 || q[i] >= m || b[i] < 0 || b[i] > b[i + 1] || b[i + 1] > np_)
+                bad = "a query names a face or partners that do not exist";
+        for (Py_ssize_t i = 0; i < np_ && !bad; i++)
+            if (l[i] < 0 || l[i] >= m)
+                bad = "a partner names a face that does not exist";
         if (!bad)
-            code = label_queries(vb.buf, fb.buf, wb.buf, m, qb.buf, xb.buf, k, threads,
-                                 (int64_t *)PyBytes_AS_STRING(front), (int8_t *)PyBytes_AS_STRING(status));
+            code = label_queries(vb.buf, fb.buf, wb.buf, m, qb.buf, xb.buf, bb.buf, lb.buf, k, threads,
+                                 (int64_t *)PyBytes_AS_STRING(front), (int64_t *)PyBytes_AS_STRING(net),
+                                 (int8_t *)PyBytes_AS_STRING(owned), (int8_t *)PyBytes_AS_STRING(status));
         Py_END_ALLOW_THREADS
     }
     if (bad)
         PyErr_SetString(PyExc_ValueError, bad);
-    else if (front && status && code < 0)
+    else if (front && net && owned && status && code < 0)
         PyErr_NoMemory();
-    else if (front && status) {
-        result = Py_BuildValue("NN", front, status);
-        front = status = NULL;
+    else if (front && net && owned && status) {
+        result = Py_BuildValue("NNNN", front, net, owned, status);
+        front = net = owned = status = NULL;
     }
     Py_XDECREF(front);
+    Py_XDECREF(net);
+    Py_XDECREF(owned);
     Py_XDECREF(status);
     PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb), PyBuffer_Release(&qb);
-    PyBuffer_Release(&xb);
+    PyBuffer_Release(&xb), PyBuffer_Release(&bb), PyBuffer_Release(&lb);
     return result;
 }
 
@@ -499,8 +508,9 @@ static PyMethodDef methods[] = {
      "face, cell faces int64, corner counts int64, corners int64, inner points (c, 6, 2) float64, new points (q, 3),\n"
      "their errors (q, 3)) (bytes): the arrangement's cut stage (arrange.c)"},
     {"labels", py_labels, METH_VARARGS,
-     "labels(vertices, faces, weights, query faces, query points (k, 2) or NaN, threads) -> (winding numbers\n"
-     "int64, status int8: 0 answered, 1 handed back, 2 no certified point) (bytes) (arrange.c)"},
+     "labels(vertices, faces, weights, query faces, query points (k, 2) or NaN, partner starts (k + 1),\n"
+     "partners, threads) -> (winding numbers int64, net weights int64, owned int8, status int8: 0 answered,\n"
+     "1 handed back, 2 no certified point) (bytes) (arrange.c)"},
     {"patches", py_patches, METH_VARARGS,
      "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
      "each way share a label (arrange.c)"},
