@@ -193,8 +193,8 @@ static int make_lpi(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t g, int
     const double *x = vx(s, P), *y = vx(s, Q);
     p->sg[0] = (int8_t)plane_side(s, g, x);
     p->sg[1] = (int8_t)plane_side(s, g, y);
-    if (p->sg[0] == p->sg[1])
-        return 0;             /* parallel to the plane, or not known to cross it: decided elsewhere */
+    if (p->sg[0] == 0 && p->sg[1] == 0)
+        return 0;             /* in the plane: no one point (P and Q may lie on one side: the line still meets it) */
     p->s[0] = plane_level(s, g, x);
     p->s[1] = plane_level(s, g, y);
     p->W = fx_sub(p->s[0], p->s[1]);
