@@ -48,8 +48,8 @@ def _same_pieces(geometry, compiled, exact):
 
 @contextlib.contextmanager
 def handing_back(seed):
-    """The compiled cut hands about half of the faces it cut back to the exact path (as it does with faces
-    whose signs it cannot settle): the two paths must fit together."""
+    """The compiled cut hands about half of the faces it cut, and of the rays it counted, back to the exact
+    path (as it does with those whose signs it cannot settle): the two paths must fit together."""
     original = arrangement._Compiled.__init__
 
     def partly(self, geometry, faces, pairs):
@@ -70,8 +70,19 @@ def handing_back(seed):
                         else np.zeros(0, dtype=np.int64))
         self.starts = np.concatenate([[0], np.cumsum(count[keep])]).astype(np.int64)
 
+    counted = arrangement._Compiled.label
+
+    def some(self, soup, pieces, first_patch, labels):
+        # and about half of the rays it counted are counted again by the exact path
+        before = [k for k, label in enumerate(labels) if label is None]
+        counted(self, soup, pieces, first_patch, labels)
+        for k in before:
+            if np.random.default_rng([seed, k]).random() < 0.5:
+                labels[k] = None
+
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(arrangement._Compiled, "__init__", partly)
+        patch.setattr(arrangement._Compiled, "label", some)
         yield
 
 
