@@ -11,19 +11,24 @@ module finds the faces that bound it:
    lists every pair of faces that meet beyond what they share.
 2. **Cuts.** Each face of a pair is cut along its intersection segments with
    the others (for two faces in one plane, along the other's edges): convex
-   cells, split where a segment crosses them.  Intersection points are exact
-   rationals (homogeneous integer coordinates on the vertices' power-of-two
-   grid): no decision uses a rounded one.
+   cells, split where a segment crosses them.  The compiled core cuts first
+   (:class:`_Compiled`: intersection points kept implicit, every sign settled
+   by a certified filter, symbolically or exactly); the faces it hands back
+   are cut here, where intersection points are exact rationals (homogeneous
+   integer coordinates on the vertices' power-of-two grid).  No decision
+   uses a rounded point.  ``arrange(..., compiled=False)`` cuts every face
+   here: the reference.
 3. **Labels.** Each cell, and each patch of uncut faces joined across edges
    that exactly two faces share, gets the winding numbers on its two sides
    from one exact ray count (Simulation of Simplicity for the ray, so no ray
-   direction is ever special); the other side follows from the net weight of
+   direction is ever special; counted in the compiled core where its filter
+   settles every face the ray may meet, here otherwise); the other side follows from the net weight of
    the faces that lie on the cell.  A piece bounds ``{w > 0}`` exactly when
    one side has ``w > 0`` and the other not; it is taken once (the lowest of
    coincident faces owns it), turned to face out of the solid.
 4. **Integrals.**  Uncut pieces are whole input faces; cut pieces are
    triangulated cells whose new corners (the intersection points) are
-   rounded once, to nearest.  Both go to the compiled kernel with its
+   rounded once, each with its rounding error found exactly.  Both go to the compiled kernel with its
    bounds, widened by the volume the rounded corners could sweep
    (:func:`massprops.mesh.solid.swept_volume` with an apex: the cut pieces
    need not share their corners, so each triangle is bounded on its own).
@@ -132,16 +137,22 @@ class _Soup:
         self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self.exponent, 0)
         self._points = {}
         self._planes = {}
-        corners = scaled[faces]
-        self.low = corners.min(axis=1)
-        self.high = corners.max(axis=1)
         self.scaled = scaled
-        # Every query's box margin (below) is at most this one: the columns may only add candidates.
-        self._reach = 1.0 + float(np.abs(scaled).max(initial=0.0))
-        self._margin = 2e-9 * self._reach
-        self._corners = corners
-        self._weights_float = weights.astype(np.float64)
         self._columns = {}
+        self._boxes = None
+
+    def _floats(self):
+        """The faces' corners and boxes in floating point, for :meth:`_near` (made when first asked)."""
+        if self._boxes is None:
+            corners = self.scaled[self.faces]
+            self.low = corners.min(axis=1)
+            self.high = corners.max(axis=1)
+            # Every query's box margin (below) is at most this one: the columns may only add candidates.
+            self._reach = 1.0 + float(np.abs(self.scaled).max(initial=0.0))
+            self._margin = 2e-9 * self._reach
+            self._corners = corners
+            self._weights_float = self.weights.astype(np.float64)
+            self._boxes = True
 
     def point(self, v):
         """Vertex ``v`` as integers (3)."""
@@ -224,6 +235,7 @@ class _Soup:
         here; every other face is left to the exact test.
         """
         unit = math.ldexp(1.0, self.exponent)
+        self._floats()
         for axis in range(3):
             mine = [k for k, q in enumerate(queries) if q[1] == axis]
             a1, a2 = (axis + 1) % 3, (axis + 2) % 3
@@ -497,10 +509,10 @@ def _contains(corners, p, i, j):
 class _Corners:
     """Corners of the kept pieces: input vertices by index, intersection points numbered after them."""
 
-    def __init__(self, soup):
+    def __init__(self, soup, before=0):
         self.soup = soup
         self.vertices = {(*q, 1): v for v, q in soup._points.items()}
-        self.count = soup.scaled.shape[0]
+        self.count = soup.scaled.shape[0] + before      # ``before`` new corners are numbered ahead of these
         self.new = {}
 
     def index(self, q):
@@ -535,6 +547,144 @@ class _Corners:
                 np.array(errors, dtype=np.float64).reshape(shape) * unit)
 
 
+# -- the cut in the compiled core ---------------------------------------------------------------
+
+class _Compiled:
+    """The cut stage run by the compiled core (``massprops/core/src/isect/arrange.c``).
+
+    It decides every sign exactly or not at all: a face (or both faces of a
+    pair) whose decisions its certified floating-point filter could not
+    settle is handed back, and cut here by the exact rational path.
+
+    Attributes
+    ----------
+    kind : ndarray, shape (p,), int8
+        Per pair: 0 the faces do not cut each other, 1 a segment, 2 coplanar, -1 handed back.
+    status : ndarray, shape (m,), int8
+        Per face: 0 not cut, 1 cut by the core, 2 handed back.
+    drop : ndarray, shape (m,), int8
+        Per face cut by the core: the axis its projection drops.
+    face, starts, corners : ndarray, int64
+        Cell ``c`` belongs to face ``face[c]``; its corners are
+        ``corners[starts[c]:starts[c + 1]]`` (turning as the face does): input
+        vertices by index, ``n + k`` for ``points[k]``.
+    inside : ndarray, shape (c, 6, 2), float64
+        Points strictly inside each cell, on the axes after ``drop`` (NaN
+        where none was certified): each is the point of the face's plane over
+        these two coordinates, rebuilt exactly by :meth:`inner`.
+    points, rounding : ndarray, shape (q, 3), float64
+        The new corners rounded once, and a certified bound on each coordinate's rounding (the
+        filter's; :meth:`rounded` finds the exact ones).
+    definitions : ndarray, shape (q, 7), int64
+        How each new corner is defined (kind, then vertices or faces, then the projection's axes).
+    """
+
+    def __init__(self, geometry, faces, pairs):
+        from ..core.intersect import _extension, _PARALLEL_ABOVE
+        from ..core.threads import threads_for
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+        self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        kind, status, drop, face, count, corners, inner, points, rounding, definitions = _extension().arrange(
+            geometry.vertices, faces, pairs, self.threads)
+        self.definitions = np.frombuffer(definitions, dtype=np.int64).reshape(-1, 7)
+        self.kind = np.frombuffer(kind, dtype=np.int8)
+        self.status = np.frombuffer(status, dtype=np.int8)
+        self.drop = np.frombuffer(drop, dtype=np.int8)
+        self.face = np.frombuffer(face, dtype=np.int64)
+        self.starts = np.concatenate([[0], np.cumsum(np.frombuffer(count, dtype=np.int64))])
+        self.corners = np.frombuffer(corners, dtype=np.int64)
+        self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
+        self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
+        self.rounding = np.frombuffer(rounding, dtype=np.float64).reshape(-1, 3)
+        self._geometry, self._faces = geometry, faces
+
+    def rounded(self, used):
+        """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
+        exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
+        is within half of one; most intersections of an edge with a plane are already within one)."""
+        from ..core.intersect import _extension
+        points, rounding = self.points[used].copy(), self.rounding[used].copy()
+        loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
+        if loose.size:
+            again, bounds = points[loose], rounding[loose]
+            _extension().refine(self._geometry.vertices, self._faces,
+                                np.ascontiguousarray(self.definitions[used[loose]]), again, bounds, self.threads)
+            points[loose], rounding[loose] = again, bounds
+        return points, rounding
+
+    def inner(self, soup, t, cell, attempt, i, j):
+        """Inner point ``attempt`` of cell ``cell`` of face ``t`` (homogeneous integers, w > 0), or None.
+
+        The point of the face's plane over the certified doubles (x, y) on
+        axes i, j: ``n · q = d`` solved for the dropped coordinate, exactly.
+        """
+        x, y = self.inside[cell, attempt].tolist()
+        if x != x or y != y:
+            return None
+        _, normal, offset = soup.plane(t)
+        drop = 3 - i - j
+        # x = a / b, y = c / e with b, e powers of two; on the soup's grid (unit 2**exponent) over one denominator
+        (a, b), (c, e) = x.as_integer_ratio(), y.as_integer_ratio()
+        denominator = max(b, e)
+        a, c = a * (denominator // b), c * (denominator // e)
+        if soup.exponent >= 0:
+            denominator <<= soup.exponent
+        else:
+            a, c = a << -soup.exponent, c << -soup.exponent
+        n_drop = normal[drop]
+        p = [0, 0, 0]
+        p[i], p[j] = a * n_drop, c * n_drop
+        p[drop] = offset * denominator - normal[i] * a - normal[j] * c
+        return _reduced(*p, n_drop * denominator)
+
+    def label(self, soup, pieces, first_patch, labels):
+        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
+        weight of the faces in their plane that hold their inner point) and patches."""
+        chosen, faces, points, partners = [], [], [], []
+        nan = (math.nan, math.nan)
+        inside = self.inside
+        for k, (t, cell, _, its_partners, _, _) in enumerate(pieces):
+            if k >= first_patch:
+                chosen.append(k), faces.append(t), points.append(nan), partners.append(())
+            elif not isinstance(cell, list):
+                chosen.append(k), faces.append(t), points.append(inside[cell, 0]), partners.append(its_partners)
+        if not chosen:
+            return
+        from ..core.intersect import _extension, _PARALLEL_ABOVE
+        from ..core.threads import threads_for
+        starts = np.zeros(len(chosen) + 1, dtype=np.int64)
+        starts[1:] = np.cumsum([len(p) for p in partners])
+        flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
+        front, net, owned, status = _extension().labels(
+            soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
+            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64),
+            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)), starts, flat,
+            threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
+        answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
+        fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()
+        nets = np.frombuffer(net, dtype=np.int64)[answered].tolist()
+        owns = np.frombuffer(owned, dtype=np.int8)[answered].tolist()
+        for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
+            labels[chosen[q]] = (w, n, bool(o))
+
+    def fans(self, chosen):
+        """Triangles (k, 3) fanning the cells ``(c, outward)`` chosen, reversed where not outward."""
+        cells = np.array([c for c, _ in chosen], dtype=np.int64)
+        outward = np.array([o for _, o in chosen], dtype=bool)
+        start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
+        fan = count - 2                                   # triangles per cell
+        owner = np.repeat(np.arange(cells.size), fan)
+        step = np.arange(owner.size) - np.repeat(np.cumsum(fan) - fan, fan) + 1   # 1 .. count - 2
+        first = start[owner]
+        triangles = np.stack([first, first + step, first + step + 1], axis=1)
+        # a cell turned inward is fanned from its last corner, as the exact path's reversed polygon
+        flip = ~outward[owner]
+        last = (start + count - 1)[owner][flip]
+        triangles[flip] = np.stack([last, last - step[flip], last - step[flip] - 1], axis=1)
+        return self.corners[triangles]
+
+
 # -- the arrangement -----------------------------------------------------------------------------
 
 def _ray(normal):
@@ -547,22 +697,36 @@ def _ray(normal):
 _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
-def _label_cells(soup, pieces):
+def _label_cells(soup, pieces, compiled=None, first_patch=None):
     """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
 
-    All pieces' rays are counted together (:meth:`_Soup.windings`); a piece
-    whose inner point lies on another face is asked again at another inner
-    point.
+    ``cell`` is a list of homogeneous corners (its inner points are weighted
+    means of three of them), or the number of a cell of ``compiled`` (a
+    :class:`_Compiled`, which gives its cells' inner points); pieces from
+    ``first_patch`` on are whole faces of patches.  With ``compiled``, the
+    compiled core counts first (:meth:`_Compiled.label`); what it hands back
+    is counted here.  All pieces' rays are counted together
+    (:meth:`_Soup.windings`); a piece whose inner point lies on another face
+    is asked again at another inner point.
     """
     labels = [None] * len(pieces)
-    pending = list(range(len(pieces)))
-    for weights in _TRIES:
+    if compiled is not None:
+        compiled.label(soup, pieces, first_patch, labels)
+    pending = [k for k, label in enumerate(labels) if label is None]
+    for attempt, weights in enumerate(_TRIES):
         if not pending:
             break
-        queries, nets = [], []
+        queries, nets, asked = [], [], []
         for k in pending:
             t, cell, normal, partners, i, j = pieces[k]
-            p = _inner_point(cell, weights)
+            if normal is None:
+                corners, normal, _ = soup.plane(t)
+                if cell is None:
+                    cell = [(*q, 1) for q in corners]
+            p = _inner_point(cell, weights) if isinstance(cell, list) else compiled.inner(soup, t, cell, attempt, i, j)
+            if p is None:
+                continue
+            asked.append(k)
             net, owned = int(soup.weights[t]), True
             for u in partners:
                 corners_u, normal_u, _ = soup.plane(u)
@@ -572,7 +736,7 @@ def _label_cells(soup, pieces):
             queries.append((p, *_ray(normal), normal))
             nets.append((net, owned))
         fronts = soup.windings(queries)
-        for k, front, (net, owned) in zip(pending, fronts, nets):
+        for k, front, (net, owned) in zip(asked, fronts, nets):
             if front is not None:
                 labels[k] = (front, net, owned)
         pending = [k for k in pending if labels[k] is None]
@@ -583,26 +747,13 @@ def _label_cells(soup, pieces):
 
 
 def _patches(faces, cut):
-    """Groups of uncut faces joined across edges that exactly two faces use, once each way."""
-    m = faces.shape[0]
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    owner = np.repeat(np.arange(m), 3)
-    low = np.minimum(directed[:, 0], directed[:, 1])
-    high = np.maximum(directed[:, 0], directed[:, 1])
-    order = np.lexsort((high, low))
-    low, high, owner, forward = low[order], high[order], owner[order], (directed[order, 0] < directed[order, 1])
-    starts = np.flatnonzero(np.r_[True, (low[1:] != low[:-1]) | (high[1:] != high[:-1])])
-    counts = np.diff(np.r_[starts, low.size])
-    pairs = starts[counts == 2]
-    a, b = owner[pairs], owner[pairs + 1]
-    keep = (forward[pairs] != forward[pairs + 1]) & ~cut[a] & ~cut[b]
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    graph = coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(m, m))
-    return connected_components(graph, directed=False)[1]
+    """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
+    from ..core.intersect import _extension
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
 
 
-def arrange(geometry, faces, weights, pairs):
+def arrange(geometry, faces, weights, pairs, *, compiled=True):
     """The faces and cut pieces that bound ``{w > 0}`` (see the module docstring).
 
     Parameters
@@ -615,6 +766,10 @@ def arrange(geometry, faces, weights, pairs):
         How many times each face counts (its copies in the soup), at least 1.
     pairs : ndarray, shape (p, 2), int64
         Every pair of faces that meet beyond what they share.
+    compiled : bool
+        Cut the faces in the compiled core (:class:`_Compiled`), which hands
+        back what its filter cannot decide; False cuts every face with the
+        exact rational path here (the reference).
 
     Returns
     -------
@@ -622,22 +777,43 @@ def arrange(geometry, faces, weights, pairs):
     """
     soup = _Soup(geometry, faces, weights)
     m = faces.shape[0]
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    compiled = _Compiled(geometry, faces, pairs) if compiled else None
+    back = np.ones(m, dtype=bool) if compiled is None else compiled.status == 2
     segments = {}
     partners = {}
-    for t, u in pairs.tolist():
-        segment, coplanar = _crossing(soup, t, u)
-        if coplanar:
+    if compiled is not None:
+        for t, u in pairs[compiled.kind == 2].tolist():
             partners.setdefault(t, []).append(u)
             partners.setdefault(u, []).append(t)
+        exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
+        unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+    else:
+        exact, unsure = pairs, None
+    for t, u in exact.tolist():
+        segment, coplanar = _crossing(soup, t, u)
+        if coplanar:
+            if unsure is None or (t, u) in unsure:
+                partners.setdefault(t, []).append(u)
+                partners.setdefault(u, []).append(t)
             for x, y in ((t, u), (u, t)):
-                corners = soup.plane(y)[0]
-                segments.setdefault(x, []).extend(((*corners[k], 1), (*corners[(k + 1) % 3], 1)) for k in range(3))
+                if back[x]:
+                    corners = soup.plane(y)[0]
+                    segments.setdefault(x, []).extend(((*corners[k], 1), (*corners[(k + 1) % 3], 1))
+                                                      for k in range(3))
         elif segment is not None:
-            segments.setdefault(t, []).append(segment)
-            segments.setdefault(u, []).append(segment)
+            for x in (t, u):
+                if back[x]:
+                    segments.setdefault(x, []).append(segment)
     cut = np.zeros(m, dtype=bool)
     cut[list(segments)] = True
     pieces = []
+    if compiled is not None:
+        cut |= compiled.status == 1
+        drops = compiled.drop.tolist()
+        # (normal None: the exact normal is made only if the exact path asks for it)
+        pieces = [(t, c, None, partners.get(t, ()), (drops[t] + 1) % 3, (drops[t] + 2) % 3)
+                  for c, t in enumerate(compiled.face.tolist())]
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -646,29 +822,50 @@ def arrange(geometry, faces, weights, pairs):
     uncut = np.flatnonzero(~cut)
     if uncut.size:
         patch = _patches(faces, cut)
-        first = {}
-        for t in uncut.tolist():
-            first.setdefault(int(patch[t]), t)
-        for t in first.values():         # one piece per patch: the whole face, asked at its centroid first
-            corners, normal, _ = soup.plane(t)
-            pieces.append((t, [(*q, 1) for q in corners], normal, (), 0, 1))
-    kept_corners = _Corners(soup)
+        patches, first = np.unique(patch[uncut], return_index=True)
+        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first
+        pieces.extend((t, None, None, (), 0, 1) for t in uncut[first].tolist())
+    labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
+    front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
+    negative = bool(np.any(front < 0) or np.any(behind < 0))
+    bounding = (front > 0) != (behind > 0)
+    kept_corners = _Corners(soup, 0 if compiled is None else compiled.points.shape[0])
     triangles = []
-    negative = False
-    side = {}
-    for k, (front, net, owned) in enumerate(_label_cells(soup, pieces)):
-        back = front + net
-        negative = negative or front < 0 or back < 0
-        t, cell = pieces[k][:2]
-        if k >= n_cells:
-            side[int(patch[t])] = 0 if (front > 0) == (back > 0) else (1 if back > 0 else -1)
-        elif owned and (front > 0) != (back > 0):
-            kept_corners.add_polygon(cell, triangles, back > 0)
+    keep = np.flatnonzero((bounding & owned)[:n_cells])
+    outward = (behind > 0)[keep].tolist()
+    fans = []
+    for k, out in zip(keep.tolist(), outward):
+        cell = pieces[k][1]
+        if isinstance(cell, list):
+            kept_corners.add_polygon(cell, triangles, out)
+        else:
+            fans.append((cell, out))
+    if fans:
+        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3), compiled.fans(fans)]
+    else:
+        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
     kept = []
     if uncut.size:
-        signs = np.array([side[int(label)] for label in patch[uncut]], dtype=np.int64)
+        side = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
+        signs = side[np.searchsorted(patches, patch[uncut])]
         kept_faces = faces[uncut]
         kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
     out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
-    pieces = np.array(triangles, dtype=np.int64).reshape(-1, 3)
-    return Arrangement(out, pieces, *kept_corners.points(), negative)
+    pieces = np.vstack(triangles)
+    points, rounding = kept_corners.points()
+    n = soup.scaled.shape[0]
+    new = pieces >= n
+    used = np.unique(pieces[new]) - n
+    if compiled is not None:
+        # the compiled corners the kept pieces use, rounded from their exact values
+        mine = used[used < compiled.points.shape[0]]
+        exact_points, exact_rounding = compiled.rounded(mine)
+        points = np.vstack([compiled.points, points])
+        rounding = np.vstack([compiled.rounding, rounding])
+        points[mine], rounding[mine] = exact_points, exact_rounding
+    # only the new corners the kept pieces use; one for points that round alike with the same bound
+    rows, index = np.unique(np.hstack([points[used], rounding[used]]), axis=0, return_inverse=True)
+    renumber = np.full(points.shape[0], -1, dtype=np.int64)
+    renumber[used] = index.reshape(-1) + n
+    pieces[new] = renumber[pieces[new] - n]
+    return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

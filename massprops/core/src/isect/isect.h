@@ -175,4 +175,43 @@ enum { RAY_OK = 0, RAY_DEGENERATE = 1, RAY_ON_SURFACE = 2, RAY_MEMORY = 3 };
 int winding_numbers(const double *V, const int64_t *F, int64_t m, const double *points, int64_t k, int64_t *out,
                     int64_t *bad);
 
+/* ---- arrange.c: the arrangement's cut stage --------------------------------------------- */
+
+/* Cells of the faces cut by their pairs' segments (see arrange.c). */
+typedef struct {
+    char *data;
+    size_t size, capacity;
+} Buf;
+
+typedef struct {
+    Buf face, count, corners, inner, points, errors, defs;   /* int64, int64, int64, 12 double, 3, 3, 7 int64 */
+    int64_t n_cells, n_points;
+} Arranged;
+
+/* kind (per pair): 0 the faces do not cut each other, 1 a segment, 2 coplanar, -1 unsure (both faces
+ * are handed back); status (per face): 0 not cut, 1 cut here, 2 handed back; drop (per face cut
+ * here): the axis its projection drops.  0, or -1 when memory ran out. */
+int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *pairs, int64_t p, int threads,
+                int8_t *kind, int8_t *status, int8_t *drop, Arranged *result);
+void arranged_free(Arranged *a);
+
+/* Each point (defined by defs, 7 int64 as arrange_cut gives them) rounded again from its exact value,
+ * where that gives a smaller certified error: q, err (3 each) updated in place. */
+void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64_t k, double *q, double *err,
+                   int threads);
+
+/* Per face, a label shared by the uncut faces joined across edges that exactly two faces use, once
+ * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
+int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
+
+/* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
+ * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
+ * the net weight of the faces on the point (its face and those of plist[pbegin[q] .. pbegin[q + 1]),
+ * faces in its plane, that hold it strictly inside) and whether all of those come after its face
+ * (owned); status[q]: 0 answered, 1 handed back (a sign the filter could not settle), 2 no certified
+ * point.  0, or -1 when memory ran out. */
+int label_queries(const double *V, const int64_t *F, const int64_t *weight, int64_t m, const int64_t *qface,
+                  const double *qxy, const int64_t *pbegin, const int64_t *plist, int64_t k, int threads,
+                  int64_t *front, int64_t *net, int8_t *owned, int8_t *status);
+
 #endif

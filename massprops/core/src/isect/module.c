@@ -6,6 +6,10 @@
  *   certificates(V, F, shell, ...)   which stars and shells are certified embedded (stars.c)
  *   winding(V, F, points)            winding numbers of points off the surface (winding.c)
  *   orient3d_signs(P)                a batch of the predicate
+ *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
+ *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
+ *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
+ *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -286,6 +290,207 @@ static PyObject *py_orient3d_signs(PyObject *self, PyObject *args)
     return out;
 }
 
+/* ---- the arrangement's cut stage ------------------------------------------------------------- */
+
+static PyObject *buf_bytes(Buf *b) { return PyBytes_FromStringAndSize(b->data ? b->data : "", (Py_ssize_t)b->size); }
+
+static PyObject *py_arrange(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *po;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOi", &vo, &fo, &po, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, pb;
+    if (get_three(vo, fo, po, &vb, &fb, &pb, 16, 0, "pairs") < 0)
+        return NULL;
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24, p = pb.len / 16;
+    PyObject *kind = PyBytes_FromStringAndSize(NULL, p), *status = PyBytes_FromStringAndSize(NULL, m);
+    PyObject *drop = PyBytes_FromStringAndSize(NULL, m), *result = NULL;
+    const char *bad = NULL;
+    int code = 0;
+    Arranged out;
+    memset(&out, 0, sizeof(out));
+    if (kind && status && drop) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *pairs = pb.buf;
+        for (Py_ssize_t k = 0; k < 2 * p && !bad; k++)
+            if (pairs[k] < 0 || pairs[k] >= m)
+                bad = "a pair names a face that does not exist";
+        if (!bad)
+            code = arrange_cut(vb.buf, fb.buf, n, m, pairs, p, threads, (int8_t *)PyBytes_AS_STRING(kind),
+                               (int8_t *)PyBytes_AS_STRING(status), (int8_t *)PyBytes_AS_STRING(drop), &out);
+        Py_END_ALLOW_THREADS
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else if (code < 0)
+            PyErr_NoMemory();
+        else
+        {
+            result = Py_BuildValue("NNNNNNNNNN", kind, status, drop, buf_bytes(&out.face), buf_bytes(&out.count),
+                                   buf_bytes(&out.corners), buf_bytes(&out.inner), buf_bytes(&out.points),
+                                   buf_bytes(&out.errors), buf_bytes(&out.defs));
+            kind = status = drop = NULL;          /* taken by Py_BuildValue, also when it fails */
+        }
+    }
+    if (!result) {
+        Py_XDECREF(kind);
+        Py_XDECREF(status);
+        Py_XDECREF(drop);
+    }
+    arranged_free(&out);
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&pb);
+    return result;
+}
+
+static PyObject *py_labels(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *wo, *qo, *xo, *bo, *lo;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOOOOOi", &vo, &fo, &wo, &qo, &xo, &bo, &lo, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, wb, qb, xb, bb, lb;
+    if (get_three(vo, fo, wo, &vb, &fb, &wb, 8, 0, "weights") < 0)
+        return NULL;
+    if (get_three(qo, xo, bo, &qb, &xb, &bb, 8, 0, "partner starts") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb);
+        return NULL;
+    }
+    if (get_buffer(lo, &lb, 8, 0, "partners") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb);
+        PyBuffer_Release(&qb), PyBuffer_Release(&xb), PyBuffer_Release(&bb);
+        return NULL;
+    }
+    Py_ssize_t m = fb.len / 24, n = vb.len / 24, k = qb.len / 8, np_ = lb.len / 8;
+    PyObject *front = PyBytes_FromStringAndSize(NULL, 8 * k), *net = PyBytes_FromStringAndSize(NULL, 8 * k);
+    PyObject *owned = PyBytes_FromStringAndSize(NULL, k), *status = PyBytes_FromStringAndSize(NULL, k);
+    PyObject *result = NULL;
+    const char *bad = wb.len / 8 != m ? "weights need one entry per face"
+                      : xb.len / 16 != k ? "query points need one per query face"
+                      : bb.len / 8 != k + 1 ? "partner starts need one per query face and one more" : NULL;
+    int code = 0;
+    if (front && net && owned && status && !bad) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *q = qb.buf, *b = bb.buf, *l = lb.buf;
+        for (Py_ssize_t i = 0; i < k && !bad; i++)
+            if (q[i] < 0 || q[i] >= m || b[i] < 0 || b[i] > b[i + 1] || b[i + 1] > np_)
+                bad = "a query names a face or partners that do not exist";
+        for (Py_ssize_t i = 0; i < np_ && !bad; i++)
+            if (l[i] < 0 || l[i] >= m)
+                bad = "a partner names a face that does not exist";
+        if (!bad)
+            code = label_queries(vb.buf, fb.buf, wb.buf, m, qb.buf, xb.buf, bb.buf, lb.buf, k, threads,
+                                 (int64_t *)PyBytes_AS_STRING(front), (int64_t *)PyBytes_AS_STRING(net),
+                                 (int8_t *)PyBytes_AS_STRING(owned), (int8_t *)PyBytes_AS_STRING(status));
+        Py_END_ALLOW_THREADS
+    }
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    else if (front && net && owned && status && code < 0)
+        PyErr_NoMemory();
+    else if (front && net && owned && status) {
+        result = Py_BuildValue("NNNN", front, net, owned, status);
+        front = net = owned = status = NULL;
+    }
+    Py_XDECREF(front);
+    Py_XDECREF(net);
+    Py_XDECREF(owned);
+    Py_XDECREF(status);
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&wb), PyBuffer_Release(&qb);
+    PyBuffer_Release(&xb), PyBuffer_Release(&bb), PyBuffer_Release(&lb);
+    return result;
+}
+
+static PyObject *py_patches(PyObject *self, PyObject *args)
+{
+    PyObject *fo, *co;
+    if (!PyArg_ParseTuple(args, "OO", &fo, &co))
+        return NULL;
+    Py_buffer fb, cb;
+    if (get_buffer(fo, &fb, 24, 0, "faces") < 0)
+        return NULL;
+    if (get_buffer(co, &cb, 1, 0, "cut") < 0) {
+        PyBuffer_Release(&fb);
+        return NULL;
+    }
+    Py_ssize_t m = fb.len / 24;
+    PyObject *out = cb.len == m ? PyBytes_FromStringAndSize(NULL, 8 * m) : NULL;
+    int code = 0;
+    const char *bad = cb.len != m ? "cut needs one entry per face" : NULL;
+    if (out) {
+        const int64_t *F = fb.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < 3 * m && !bad; i++)
+            if (F[i] < 0 || F[i] >= ((int64_t)1 << 31))
+                bad = "a face names a vertex out of range";
+        if (!bad)
+            code = patch_labels(F, m, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&fb), PyBuffer_Release(&cb);
+    if (bad || code < 0) {
+        Py_XDECREF(out);
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else
+            PyErr_NoMemory();
+        return NULL;
+    }
+    return out;
+}
+
+static PyObject *py_refine(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *fo, *dobj, *qo, *eo;
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &dobj, &qo, &eo, &threads))
+        return NULL;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_buffer vb, fb, db, qb, eb;
+    if (get_three(vo, fo, dobj, &vb, &fb, &db, 56, 0, "definitions") < 0)
+        return NULL;
+    if (get_buffer(qo, &qb, 24, 1, "points") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db);
+        return NULL;
+    }
+    if (get_buffer(eo, &eb, 24, 1, "errors") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
+        return NULL;
+    }
+    Py_ssize_t k = db.len / 56, m = fb.len / 24, n = vb.len / 24;
+    const char *bad = qb.len / 24 != k || eb.len / 24 != k ? "one point and one error per definition" : NULL;
+    if (!bad) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, m, n);
+        const int64_t *d = db.buf;
+        for (Py_ssize_t i = 0; i < k && !bad; i++) {
+            int64_t kind = d[7 * i];
+            for (int j = 1; j <= (kind == 2 ? 4 : 3) && !bad; j++) {
+                /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
+                int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
+                if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
+                    bad = "a point definition names something that does not exist";
+            }
+            if (!bad && (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0
+                         || d[7 * i + 6] > 2))
+                bad = "a point definition is not one the arrangement makes";
+        }
+        if (!bad)
+            refine_points(vb.buf, fb.buf, db.buf, k, qb.buf, eb.buf, threads);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
+    PyBuffer_Release(&eb);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -298,6 +503,20 @@ static PyMethodDef methods[] = {
      "per shell: shell certified embedded), bytes of 0/1"},
     {"winding", py_winding, METH_VARARGS, "winding(vertices, faces, points) -> int64 winding numbers (bytes)"},
     {"orient3d_signs", py_orient3d_signs, METH_VARARGS, "orient3d_signs(points (k, 4, 3)) -> int8 signs (bytes)"},
+    {"arrange", py_arrange, METH_VARARGS,
+     "arrange(vertices, faces, pairs (p, 2), threads) -> (kind int8 per pair, status int8 per face, drop int8 per\n"
+     "face, cell faces int64, corner counts int64, corners int64, inner points (c, 6, 2) float64, new points (q, 3),\n"
+     "their errors (q, 3)) (bytes): the arrangement's cut stage (arrange.c)"},
+    {"labels", py_labels, METH_VARARGS,
+     "labels(vertices, faces, weights, query faces, query points (k, 2) or NaN, partner starts (k + 1),\n"
+     "partners, threads) -> (winding numbers int64, net weights int64, owned int8, status int8: 0 answered,\n"
+     "1 handed back, 2 no certified point) (bytes) (arrange.c)"},
+    {"patches", py_patches, METH_VARARGS,
+     "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
+     "each way share a label (arrange.c)"},
+    {"refine", py_refine, METH_VARARGS,
+     "refine(vertices, faces, definitions (k, 7), points (k, 3), errors (k, 3), threads): the points rounded\n"
+     "again from their exact values where that certifies a smaller error (in place) (arrange.c)"},
     {NULL, NULL, 0, NULL},
 };
 

@@ -1,0 +1,184 @@
+"""The arrangement's cut stage in the compiled core agrees with the exact rational path (the reference).
+
+Every soup is resolved twice by :func:`massprops.mesh.arrangement.arrange`:
+with the compiled cut (which hands back to the exact path what its filter
+cannot decide) and with the exact path alone.  They must keep the same
+uncut faces and the same cut pieces (corner for corner, within the two
+roundings' certified bounds), agree on negative windings, and the result
+must match the exact oracle where there is one (signed unions of boxes).
+"""
+
+import contextlib
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from massprops import mass_properties
+from massprops.mesh import arrangement
+from massprops.mesh.surface import TriangleMesh
+from massprops.validation import solids
+from oracle import within_bounds
+from test_arrangement import _ROTATIONS, _box, _rotated, box_soup, grid_oracle, soup
+from conftest import random_rotation
+
+
+def _triangles(geometry, arranged):
+    """Corners (k, 3, 3) of the kept pieces in the scaled frame, and a bound on each coordinate's rounding."""
+    points = np.vstack([geometry.vertices, arranged.points])
+    rounding = np.vstack([np.zeros_like(geometry.vertices), arranged.rounding])
+    faces = np.vstack([arranged.faces, arranged.pieces])
+    return points[faces], rounding[faces]
+
+
+def _same_pieces(geometry, compiled, exact):
+    """Every kept triangle of one run is a kept triangle of the other, corners within their rounding."""
+    a, ea = _triangles(geometry, compiled)
+    b, eb = _triangles(geometry, exact)
+    assert a.shape == b.shape
+    # |a - b| <= ea + eb on every coordinate of every corner, for a one-to-one matching
+    gap = np.abs(a[:, None] - b[None, :]) - (ea[:, None] + eb[None, :])
+    fits = np.all(gap <= 0.0, axis=(2, 3))
+    free = np.ones(b.shape[0], dtype=bool)
+    for k in range(a.shape[0]):
+        candidates = np.flatnonzero(fits[k] & free)
+        assert candidates.size, f"kept piece {k} of the compiled cut is not kept by the exact path"
+        free[candidates[0]] = False
+
+
+@contextlib.contextmanager
+def handing_back(seed):
+    """The compiled cut hands about half of the faces it cut, and of the rays it counted, back to the exact
+    path (as it does with those whose signs it cannot settle): the two paths must fit together."""
+    original = arrangement._Compiled.__init__
+
+    def partly(self, geometry, faces, pairs):
+        original(self, geometry, faces, pairs)
+        cut = np.flatnonzero(self.status == 1)
+        back = cut[np.random.default_rng(seed).random(cut.size) < 0.5]
+        if back.size == 0:
+            return
+        status = self.status.copy()
+        status[back] = 2
+        keep = ~np.isin(self.face, back)
+        count = np.diff(self.starts)
+        corners = np.split(self.corners, self.starts[1:-1]) if self.face.size else []
+        self.status = status
+        self.face = self.face[keep]
+        self.inside = self.inside[keep]
+        self.corners = (np.concatenate([c for c, k in zip(corners, keep) if k]) if keep.any()
+                        else np.zeros(0, dtype=np.int64))
+        self.starts = np.concatenate([[0], np.cumsum(count[keep])]).astype(np.int64)
+
+    counted = arrangement._Compiled.label
+
+    def some(self, soup, pieces, first_patch, labels):
+        # and about half of the rays it counted are counted again by the exact path
+        before = [k for k, label in enumerate(labels) if label is None]
+        counted(self, soup, pieces, first_patch, labels)
+        for k in before:
+            if np.random.default_rng([seed, k]).random() < 0.5:
+                labels[k] = None
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(arrangement._Compiled, "__init__", partly)
+        patch.setattr(arrangement._Compiled, "label", some)
+        yield
+
+
+@contextlib.contextmanager
+def compared():
+    """Every arrangement inside runs both ways and is compared; yields counts of faces the core cut
+    itself and handed back."""
+    original = arrangement.arrange
+    tally = {"core": 0, "back": 0}
+
+    def both(geometry, faces, weights, pairs):
+        ours = original(geometry, faces, weights, pairs)
+        reference = original(geometry, faces, weights, pairs, compiled=False)
+        assert ours.negative == reference.negative
+        assert sorted(map(tuple, ours.faces.tolist())) == sorted(map(tuple, reference.faces.tolist()))
+        _same_pieces(geometry, ours, reference)
+        status = arrangement._Compiled(geometry, faces, pairs).status
+        tally["core"] += int(np.count_nonzero(status == 1))
+        tally["back"] += int(np.count_nonzero(status == 2))
+        return ours
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(arrangement, "arrange", both)
+        yield tally
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(_box(), min_size=1, max_size=4), st.integers(0, 3), st.randoms(use_true_random=False),
+       st.booleans(), st.sampled_from([None, 1, 2]))
+def test_box_unions_agree_with_the_exact_path_and_the_oracle(boxes, rotation, random, repeat, back):
+    # coplanar overlaps, repeated faces, boxes touching at faces, edges and vertices; some faces handed back
+    if sum(sign for *_, sign in boxes) < 1:
+        boxes = boxes + [((0, 0, 0), (65, 65, 65), 1)]
+    with compared(), (handing_back(back) if back else contextlib.nullcontext()):
+        if repeat:
+            boxes = boxes + boxes[:1]
+        exact = grid_oracle(boxes)
+        if exact["volume"] == 0:
+            return
+        mesh = box_soup(boxes)
+        matrix = _ROTATIONS[rotation]
+        vertices = np.array([[float(sum(matrix[i][k] * int(v[k]) for k in range(3))) for i in range(3)]
+                             for v in mesh.vertices.tolist()])
+        faces = mesh.faces.tolist()
+        random.shuffle(faces)
+        result = mass_properties(soup(TriangleMesh(vertices, np.array(faces, dtype=np.int64))))
+        within_bounds(result.properties, _rotated(exact, matrix))
+
+
+def _spheres(seeds, offsets, level=1):
+    meshes = []
+    for seed, offset in zip(seeds, offsets):
+        sphere = solids.icosphere(level, 1.0)
+        meshes.append(sphere.transformed(random_rotation(seed), offset))
+    return solids.combine(*meshes)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.integers(0, 10 ** 6), min_size=2, max_size=3),
+       st.lists(st.tuples(*[st.floats(-0.8, 0.8)] * 3), min_size=3, max_size=3), st.sampled_from([None, 3]))
+def test_overlapping_spheres_agree_with_the_exact_path(seeds, offsets, back):
+    with compared() as tally, (handing_back(back) if back else contextlib.nullcontext()):
+        result = mass_properties(_spheres(seeds, offsets))
+        assert result.properties.volume > 0
+        assert tally["back"] == 0 or tally["core"] > 0
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10 ** 6), st.integers(6, 15), st.sampled_from(["box", "sphere"]),
+       st.sampled_from([None, "reversed", "shifted"]))
+def test_nearly_coplanar_copies_agree_with_the_exact_path(seed, digits, shape, variant):
+    # a solid and a copy turned by 10**-digits about a random axis through a corner: faces that nearly
+    # coincide, segments that nearly touch; a third copy reversed (cancelling) or shifted by a tiny step
+    with compared():
+        base = solids.box((1.0, 2.0, 3.0)) if shape == "box" else solids.icosphere(1, 1.0)
+        axis = np.random.default_rng(seed).normal(size=3)
+        axis /= np.linalg.norm(axis)
+        angle = 10.0 ** -digits
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        turn = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
+        pivot = base.vertices[0]
+        copy = base.transformed(turn, pivot - turn @ pivot)
+        parts = [base, copy]
+        if variant == "reversed":
+            parts.append(copy.flipped())
+        elif variant == "shifted":
+            parts.append(base.transformed(np.eye(3), np.full(3, 2.0 ** -40)))
+        result = mass_properties(solids.combine(*parts))
+        assert result.properties.volume > 0
+
+
+def test_the_core_cuts_generic_crossings_itself():
+    # Two spheres crossing in general position: no decision is left to the exact path.
+    from massprops.core.intersect import ExactGeometry
+    mesh = _spheres([1, 2], [(0, 0, 0), (0.5, 0.3, 0.2)], level=2)
+    geometry = ExactGeometry(mesh.vertices)
+    pairs, _ = geometry.crossing_pairs(mesh.faces)
+    status = arrangement._Compiled(geometry, mesh.faces, pairs).status
+    assert np.count_nonzero(status == 1) > 50 and np.count_nonzero(status == 2) == 0
