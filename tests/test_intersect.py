@@ -532,3 +532,22 @@ def test_a_shell_certified_patch_by_patch_is_found_the_same_on_any_thread_count(
                                        max_examples=10 ** 6)
         results.append((found.self_found.tolist(), found.examples.tolist()))
     assert results[0] == results[1] == results[2] and results[0][0] == [True]
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(0, 2 ** 31), st.lists(st.integers(-8, 8), min_size=3, max_size=3),
+       st.lists(st.integers(-8, 8), min_size=3, max_size=3))
+def test_crossing_pairs_of_several_shells_are_every_pair_that_meets(seed, second, third):
+    """Three finely cut boxes, the second and third moved so they cross the first, each other, or
+    nothing: with their shell labels, the pairs listed are every pair of faces that meet (within a
+    shell or between two), exactly those of every pair tested exactly."""
+    rng = np.random.default_rng(seed)
+    points, faces = [], []
+    for shift in ([0, 0, 0], second, third):
+        p, f = _finely_cut_box(3, rng, 4)
+        faces += [[i + len(points) for i in face] for face in f]
+        points += [[x + s for x, s in zip(q, shift)] for q in p]
+    labels = np.repeat(np.arange(3), len(faces) // 3)
+    geometry = ExactGeometry(np.array(points, dtype=float))
+    reported, _ = geometry.crossing_pairs(np.array(faces), labels, 3)
+    assert {tuple(p) for p in reported.tolist()} == crossing_pairs(points, faces)

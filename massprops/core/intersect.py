@@ -128,6 +128,9 @@ class ExactGeometry:
             Look for self-intersections, and for meeting shells.
         active : ndarray, shape (m,), bool, optional
             Faces to consider (default all); faces of zero area never take part.
+        max_examples : int
+            Self-intersecting face pairs to keep as ``examples``; -1 keeps every
+            meeting pair, within shells and between them.
 
         Returns
         -------
@@ -164,10 +167,9 @@ class ExactGeometry:
         ----------
         faces : ndarray, shape (m, 3), int
         shells : ndarray, shape (m,), int, optional
-            Shell labels (``0 .. n_shells - 1``).  With several shells, a first
-            search per shell (where each shell may be certified embedded as a
-            whole) tells which shells meet anything; only their faces are then
-            searched for every pair.  The pairs are the same as without labels.
+            Shell labels (``0 .. n_shells - 1``).  Each shell may be certified
+            embedded as a whole, which spares the search within it; the pairs
+            are the same as without labels.
 
         Returns
         -------
@@ -180,16 +182,11 @@ class ExactGeometry:
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         if threads is None:
             threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        if shells is None or n_shells <= 1:
+            shells, n_shells = np.zeros(faces.shape[0], dtype=np.int64), 1
+        shells = np.ascontiguousarray(shells, dtype=np.int64)
         active = np.ones(faces.shape[0], dtype=np.uint8)
-        if shells is not None and n_shells > 1:
-            first = self.intersections(faces, shells, n_shells, within=True, between=True, max_examples=0,
-                                       threads=threads)
-            involved = np.union1d(np.flatnonzero(first.self_found), first.shell_pairs.ravel())
-            if involved.size == 0:
-                return np.zeros((0, 2), dtype=np.int64), first.pinched
-            active = np.isin(shells, involved).astype(np.uint8)
-        labels = np.zeros(faces.shape[0], dtype=np.int64)
-        found = _extension().pairs(self.vertices, faces, labels, active, 1, True, False, -1, int(threads))
+        found = _extension().pairs(self.vertices, faces, shells, active, int(n_shells), True, True, -1, int(threads))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
         pinched = None if found[7] < 0 else int(found[7])
         return (np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()), pinched

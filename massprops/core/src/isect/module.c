@@ -495,7 +495,7 @@ static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
     {"pairs", py_pairs, METH_VARARGS,
-     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples (-1: every pair), threads)\n"
+     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples (-1: every meeting pair, within and between shells), threads)\n"
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
      "certified vertices, vertices whose faces do not turn once around them or -1)"},
     {"certificates", py_certificates, METH_VARARGS,

@@ -31,7 +31,7 @@
 #define FACE_BLOCK 4096
 
 typedef struct {
-    int64_t *examples;        /* 2 per example, up to max_examples (all of them when it is negative) */
+    int64_t *examples;        /* 2 per example, up to max_examples (when it is negative: every meeting pair, between shells too) */
     int64_t n_examples, cap_examples;
     int64_t *self_shells;     /* shells found crossing themselves in this block, each once */
     int64_t n_self, cap_self;
@@ -309,11 +309,22 @@ static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u
         u = x;
     }
     uint64_t key = ((uint64_t)st << 32) | (uint64_t)su;
-    if (seen_has(seen, key))
+    int every = s->max_examples < 0;    /* every meeting pair is listed, between shells too */
+    if (!every && seen_has(seen, key))
         return;
     b->tests++;
     if (!other_hit(g, t, u))
         return;
+    if (every) {
+        int64_t x = grid_id(g, t), y = grid_id(g, u);
+        int64_t pair[2] = {x < y ? x : y, x < y ? y : x};
+        if (append(&b->examples, &b->n_examples, &b->cap_examples, 2, pair) < 0) {
+            b->failed = 1;
+            return;
+        }
+        if (seen_has(seen, key))
+            return;
+    }
     int64_t row[4] = {st, su, grid_id(g, t), grid_id(g, u)};
     if (seen_add(seen, key) < 0 || append(&b->found, &b->n_found, &b->cap_found, 4, row) < 0)
         b->failed = 1;
