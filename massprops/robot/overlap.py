@@ -366,6 +366,7 @@ def _within(summed, union):
 
 _FACE_BUDGET = 1 << 19          # triangles of the inner polyhedra together, at the finest refinement
 _FIRST_SEGMENTS = 16            # points around each circle at the first refinement
+_MOST_SEGMENTS = 1024          # points around at most: a face a ring cuts has as many edges, triangulated
 
 
 def _mixed(link_name, members, repair, tolerance):
@@ -451,7 +452,7 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     summed = combine_parts([m.props for m in solids + curved])
     surfaces = [s.placed for s in solids]
     segments, finest = _FIRST_SEGMENTS, _FIRST_SEGMENTS
-    while sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
+    while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
         finest *= 2
     while True:
         inner = [_polyhedron(c, segments, False) for c in curved]
@@ -491,8 +492,9 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
         props = props_of(estimate, density, x_in.surface_area)
         if props is None:
             raise MassPropsError("its bound exceeds its volume")
-        relative = max(props.error.mass / props.mass,
-                       props.error.inertia_com / max(float(np.abs(props.inertia_com).max()), 1e-300))
+        placed = combine_parts([props])       # as the link combines it: the center's bound reaches the inertia
+        relative = max(placed.error.mass / placed.mass,
+                       placed.error.inertia_com / max(float(np.abs(placed.inertia_com).max()), 1e-300))
         if relative <= tolerance or segments >= finest:
             break
         # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget.
