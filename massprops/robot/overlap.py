@@ -89,7 +89,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..model.errors import MassPropsError
+from ..model.errors import MassPropsError, option
 from ..mesh.shells import joined_groups
 from ..model.combine import combine_parts
 from .units import volume_text
@@ -205,12 +205,26 @@ def _curved_union(link_name, members, tolerance):
     if twice > found.raw.e_volume + total.e_volume:
         said.append(f"link {link_name!r}: geometries {_names(members)} overlap by {volume_text(twice)}: the link is their "
                     "union, each point counted once (checks.overlap)")
-    if found.spent:
-        relative = max(props.error.mass / props.mass, props.error.inertia_com / max(float(np.abs(
-            props.inertia_com).max()), 1e-300))
+    placed = combine_parts([props])
+    relative = max(placed.error.mass / placed.mass, placed.error.inertia_com / max(float(np.abs(
+        placed.inertia_com).max()), 1e-300))
+    if relative > tolerance:
+        # The grid converges linearly; polyhedra inside and around the curved ones, through the exact arrangement,
+        # converge quadratically: taken when tighter.
+        curved = [m for m in members if m.kind in CURVED]
+        boxes = [m for m in members if m.kind not in CURVED]
+        if all(m.surface is not None for m in boxes):
+            try:
+                part, facts, words = _tessellated(link_name, boxes, curved, False, tolerance)
+            except MassPropsError:
+                part = None
+            if part is not None and facts["relative"] < relative:
+                facts["united"] = True
+                return part, facts, words
         said.append(f"link {link_name!r}: the overlap of geometries {_names(members)} is computed to within "
                     f"{relative:.1e} of the link's mass and inertia, not the {tolerance:g} asked "
-                    "({tolerance}): the refinement stopped at its budget")
+                    "({tolerance}): " + ("the refinement stopped at its budget" if found.spent else
+                                         "members modelled on a common axis they are off by more than rounding"))
     return [props], {"overlap": max(twice, 0.0), "united": True}, said
 
 
@@ -482,6 +496,49 @@ def _polyhedron(member, segments, outer):
     return points, faces, moved + delta * (1 + 1e-6)
 
 
+def _subdivided(placed, longest, most=1 << 17):
+    """A placed surface ``(vertices, faces, moves)`` with each triangle cut into 4 at its edges' midpoints until no
+    edge is longer than ``longest`` (or the faces would pass ``most``): the same surface, exactly (a midpoint of
+    floats is a float, within the larger move of its ends of the exact midpoint).  A face a fine polyhedron crosses
+    is then cut by few of its edges, which the arrangement resolves in time linear, not quadratic, in them."""
+    points, faces, moved = placed
+    while faces.shape[0] * 4 <= most:
+        edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        lengths = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+        if float(lengths.max()) <= longest:
+            break
+        keys = np.sort(edges, axis=1)
+        unique, index = np.unique(keys, axis=0, return_inverse=True)
+        index = index.reshape(-1)
+        middle = (points[unique[:, 0]] + points[unique[:, 1]]) / 2
+        reach = np.maximum(moved[unique[:, 0]], moved[unique[:, 1]])
+        base = points.shape[0]
+        m = faces.shape[0]
+        ab, bc, ca = (base + index[:m], base + index[m:2 * m], base + index[2 * m:])
+        a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+        faces = np.vstack([np.column_stack([a, ab, ca]), np.column_stack([ab, b, bc]),
+                           np.column_stack([ca, bc, c]), np.column_stack([ab, bc, ca])]).astype(np.int64)
+        points = np.vstack([points, middle])
+        moved = np.concatenate([moved, reach])
+    return points, faces, moved
+
+
+def _meeting_reach(surfaces, outer, ref):
+    """The farthest, per axis, from ``ref`` that a band ``P_j,out \\ P_j,in`` inside another geometry can be: over
+    the intersections of each outer polyhedron's box with every other geometry's box (vertices ± moves)."""
+    boxes = [(p[0].min(axis=0) - p[2].max(), p[0].max(axis=0) + p[2].max()) for p in surfaces + outer]
+    first = len(surfaces)
+    reach = 0.0
+    for j in range(first, len(boxes)):
+        for i in range(len(boxes)):
+            if i == j:
+                continue
+            low, high = np.maximum(boxes[i][0], boxes[j][0]), np.minimum(boxes[i][1], boxes[j][1])
+            if np.all(high >= low):
+                reach = max(reach, float(np.maximum(np.abs(low - ref), np.abs(high - ref)).max()))
+    return reach * (1 + 4 * _U)
+
+
 def _tessellated(link_name, solids, curved, repair, tolerance):
     """``(parts, facts, warnings)``: the union of meshes and boxes ``solids`` and curved primitives ``curved``
     of one density, refined until its bound is at most ``tolerance`` or the budget is spent (module docstring)."""
@@ -493,7 +550,10 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     segments, finest = _FIRST_SEGMENTS, _FIRST_SEGMENTS
     while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
         finest *= 2
+    largest = max(max(float(b - a) for a, b in zip(*c.box)) for c in curved)
     while True:
+        # Faces of the meshes and boxes cut to a few of the polyhedra's edges across (see _subdivided).
+        surfaces = [_subdivided(s.placed, 8 * math.pi * largest / segments) for s in solids]
         inner = [_polyhedron(c, segments, False) for c in curved]
         outer = [_polyhedron(c, segments, True) for c in curved]
         x_in = _union_props(surfaces + inner, density, repair)
@@ -523,7 +583,10 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
             estimate = Raw(both.volume / 2, both.first / 2, both.second / 2, both.e_volume / 2, both.e_first / 2,
                            both.e_second / 2, both.ref)
             extra, how = between / 2, "between"
-        reach = float(np.abs(points - estimate.ref).max()) + max(float(p[2].max()) for p in surfaces + outer)
+        if how == "sharp":
+            reach = _meeting_reach(surfaces, outer, estimate.ref)
+        else:
+            reach = float(np.abs(points - estimate.ref).max()) + max(float(p[2].max()) for p in surfaces + outer)
         reach *= 1 + 1e-9
         estimate = Raw(estimate.volume, estimate.first, estimate.second,
                        estimate.e_volume + (0.0 if how == "sharp" else extra),
@@ -548,9 +611,9 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
         text = f"link {link_name!r}: geometries {names} touch or overlap by less than their bound; united"
     text += f" (checks.overlap), mass and inertia known to {relative:.1e}"
     if relative > tolerance:
-        text += (f", not the {tolerance:g} asked (--tolerance): the refinement stopped at its budget, "
+        text += (f", not the {tolerance:g} asked ({option('tolerance')}): the refinement stopped at its budget, "
                  f"{faces} triangles on the curved ones")
-    return [props], {"overlap": max(twice, 0.0), "tessellated": {"segments": segments, "bound": how}}, [text]
+    return [props], {"overlap": max(twice, 0.0), "relative": relative, "segments": segments, "bound": how}, [text]
 
 
 # -- kept whole -------------------------------------------------------------------
