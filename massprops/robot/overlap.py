@@ -25,8 +25,10 @@ permutation, else widened by the rounding of the placement) are decided:
   and boxes) that may overlap one another, and none of them a mesh, are their
   union, computed by :mod:`massprops.robot.curved` (closed forms; prisms and
   other shapes on a certified grid refined until the bound is at most
-  ``tolerance`` of the link's mass and inertia, or a warning says how far it
-  got).
+  ``tolerance`` of the link's mass and inertia; when it stays above, the
+  group is computed again through inner and outer polyhedra as below, boxes
+  as their triangles, and the tighter bound kept; else a warning says how far
+  it got).
 
 * **Curved primitives meeting meshes** (and boxes) of one density: first what
   needs no tessellation, certified: a mesh whose every exactly placed vertex
@@ -61,7 +63,9 @@ permutation, else widened by the rounding of the placement) are decided:
   construction's rounding (swept volume of the moved vertices, as for
   meshes), and the closed forms'.  ``n`` starts at 16 and jumps to where the
   bound, which falls as ``1/n²``, should meet the tolerance, up to 1024
-  points around and 2¹⁹ triangles on the inner polyhedra; then a warning
+  points around and 2¹⁹ triangles on the inner polyhedra (each mesh's
+  triangles cut at their edges' midpoints, exactly, until few polyhedron
+  edges cross one: the arrangement's time grows with their square); then a warning
   says to what the mass and inertia are known.  Convergence is quadratic in
   ``n``, but only where ``P``'s surface lies outside the others (``w``) or
   inside them (``W``): a primitive half in a mesh keeps about half its band,
