@@ -87,6 +87,7 @@ permutation, else widened by the rounding of the placement) are decided:
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
@@ -423,6 +424,7 @@ def _within(summed, union):
 
 _FACE_BUDGET = 1 << 19          # triangles of the inner polyhedra together, at the finest refinement
 _FIRST_SEGMENTS = 16            # points around each circle at the first refinement
+_TIME_BUDGET = 10.0             # seconds a union may take to refine (a level is not started beyond it)
 _MOST_SEGMENTS = 1024          # points around at most: a face a ring cuts has as many edges, triangulated
 
 
@@ -500,7 +502,7 @@ def _polyhedron(member, segments, outer):
     return points, faces, moved + delta * (1 + 1e-6)
 
 
-def _subdivided(placed, longest, most=1 << 17):
+def _subdivided(placed, longest, most=1 << 12):
     """A placed surface ``(vertices, faces, moves)`` with each triangle cut into 4 at its edges' midpoints until no
     edge is longer than ``longest`` (or the faces would pass ``most``): the same surface, exactly (a midpoint of
     floats is a float, within the larger move of its ends of the exact midpoint).  A face a fine polyhedron crosses
@@ -555,7 +557,10 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
         finest *= 2
     largest = max(max(float(b - a) for a, b in zip(*c.box)) for c in curved)
+    started = time.perf_counter()
+    stopped = "triangles"
     while True:
+        level_started = time.perf_counter()
         # Faces of the meshes and boxes cut to a few of the polyhedra's edges across (see _subdivided).
         surfaces = [_subdivided(s.placed, 8 * math.pi * largest / segments) for s in solids]
         inner = [_polyhedron(c, segments, False) for c in curved]
@@ -603,9 +608,17 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
                        placed.error.inertia_com / max(float(np.abs(placed.inertia_com).max()), 1e-300))
         if relative <= tolerance or segments >= finest:
             break
-        # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget.
+        # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget of triangles
+        # and of time (a level's time taken to grow at most as n², as it does where coplanar faces are cut).
+        spent = time.perf_counter() - started
+        last = time.perf_counter() - level_started
+        affordable = segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3))
         wanted = segments * math.sqrt(relative / tolerance) * 1.2
-        segments = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)))
+        step = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)), 4 * math.floor(affordable / 4))
+        if step <= segments:
+            stopped = "time"
+            break
+        segments = step
     twice = summed.volume - props.volume
     faces = sum(faces_for(c.kind, segments) for c in curved)
     names = _names(solids + curved)
@@ -615,8 +628,9 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
         text = f"link {link_name!r}: geometries {names} touch or overlap by less than their bound; united"
     text += f" (checks.overlap), mass and inertia known to {relative:.1e}"
     if relative > tolerance:
-        text += (f", not the {tolerance:g} asked ({option('tolerance')}): the refinement stopped at its budget, "
-                 f"{faces} triangles on the curved ones")
+        text += (f", not the {tolerance:g} asked ({option('tolerance')}): the refinement stopped at its budget "
+                 + (f"of {_TIME_BUDGET:g} s" if stopped == "time" else "of triangles")
+                 + f", {faces} on the curved ones")
     return [props], {"overlap": max(twice, 0.0), "relative": relative, "segments": segments, "bound": how}, [text]
 
 
