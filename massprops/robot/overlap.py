@@ -612,7 +612,7 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
         # and of time (a level's time taken to grow at most as n², as it does where coplanar faces are cut).
         spent = time.perf_counter() - started
         last = time.perf_counter() - level_started
-        affordable = segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3))
+        affordable = min(finest, segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3)))
         wanted = segments * math.sqrt(relative / tolerance) * 1.2
         step = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)), 4 * math.floor(affordable / 4))
         if step <= segments:
