@@ -63,9 +63,10 @@ permutation, else widened by the rounding of the placement) are decided:
   construction's rounding (swept volume of the moved vertices, as for
   meshes), and the closed forms'.  ``n`` starts at 16 and jumps to where the
   bound, which falls as ``1/n²``, should meet the tolerance, up to 1024
-  points around and 2¹⁹ triangles on the inner polyhedra (each mesh's
-  triangles cut at their edges' midpoints, exactly, until few polyhedron
-  edges cross one: the arrangement's time grows with their square); then a warning
+  points around, 2¹⁹ triangles on the inner polyhedra and ``_TIME_BUDGET``
+  seconds (each mesh's triangles cut at their edges' midpoints, exactly,
+  until few polyhedron edges cross one: the arrangement's time grows with
+  their square); then a warning
   says to what the mass and inertia are known.  Convergence is quadratic in
   ``n``, but only where ``P``'s surface lies outside the others (``w``) or
   inside them (``W``): a primitive half in a mesh keeps about half its band,
