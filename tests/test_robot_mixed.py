@@ -189,3 +189,18 @@ def test_the_cli_shows_the_united_mass(tmp_path, runner):
     united = 1000 * (1 + 2 / 3 * math.pi * 0.027)            # 1056.549 kg; counted whole it would be 1113.1 kg
     assert f"{united:.6g}"[:6] in result.output
     assert "overlap by about 0.056" in result.output and "counted once" in result.output
+
+
+@pytest.mark.parametrize("kind, size, above", [
+    # An ellipsoid centred on the cube's top face: its upper half, 2/3 π abc.
+    ("ellipsoid", {"radii": (0.2, 0.3, 0.25)}, 2 * PI * F(0.2) * F(0.3) * F(0.25) / 3),
+    # A cone (base r 0.2 at z = 0.2, apex at z = 0.8) through the top face: the cone above it, r 0.1 and 0.3 high.
+    ("cone", {"radius": 0.2, "length": 0.6}, PI * (F(0.2) * (F(0.8) - HALF) / F(0.6)) ** 2 * (F(0.8) - HALF) / 3),
+    # A capsule of length 0 (a sphere) centred on the face.
+    ("capsule", {"radius": 0.2, "length": 0.0}, 2 * PI * F(0.2) ** 3 / 3)])
+def test_other_curved_primitives_on_a_mesh_face(kind, size, above):
+    solid = Geometry(kind, "collision", "p", pose=Pose(translation=(0.1, 0.05, 0.5)), size=size)
+    link = _link(_mesh(), solid, tolerance=1e-3)
+    union = 1 + above
+    assert abs(F(link.props.volume) - union) <= F(link.props.error.volume) + F(4 * U) * union
+    assert link.props.error.volume <= 1e-3 * float(union)
