@@ -22,14 +22,58 @@ permutation, else widened by the rounding of the placement) are decided:
     the union's bound``).
 
 * **Primitives of one density** (sphere, cylinder, capsule, ellipsoid, cone,
-  and boxes not united with a mesh) that may overlap one another, and none of
-  them a mesh or a geometry of another density, are their union, computed by
-  :mod:`massprops.robot.curved` (closed forms; prisms and other shapes on a
-  certified grid refined until the bound is at most ``tolerance`` of the
-  link's mass and inertia, or a warning says how far it got).
+  and boxes) that may overlap one another, and none of them a mesh, are their
+  union, computed by :mod:`massprops.robot.curved` (closed forms; prisms and
+  other shapes on a certified grid refined until the bound is at most
+  ``tolerance`` of the link's mass and inertia; when it stays above, the
+  group is computed again through inner and outer polyhedra as below, boxes
+  as their triangles, and the tighter bound kept; else a warning says how far
+  it got).
 
-* **Otherwise** (a primitive meeting a mesh, different densities, meshes not
-  read as closed surfaces, ``on_open``) the geometries stay whole.  Two
+* **Curved primitives meeting meshes** (and boxes) of one density: first what
+  needs no tessellation, certified: a mesh whose every exactly placed vertex
+  is inside a primitive (floats with a margin over the vertex's move and
+  rounding, else exact rationals ``y = R⁻¹ (x − t)``) lies in it, the
+  primitive being convex: counted once; a primitive that a plane separates
+  from every mesh's vertices (support functions with a margin) and from the
+  other primitives is counted whole.  The rest is united through polyhedra
+  (:mod:`massprops.robot.tessellate`): ``P_in ⊂ P ⊂ P_out`` for each curved
+  primitive ``P``, with ``n`` points around each circle, placed like a mesh
+  (their construction's rounding added to each vertex's move).  With ``M``
+  the meshes and boxes, ``X_in = M ∪ ⋃ P_in`` and ``X_out = M ∪ ⋃ P_out`` go
+  through the same exact pipeline, as do each ``P_in`` and ``P_out`` alone;
+  every volume below is taken at the end of its bound that makes the result
+  larger.  ``X_in ⊂ U ⊂ X_out`` (``U`` the union wanted), so
+
+  - *between*: the middle of ``X_in`` and ``X_out`` is within ``W/2`` of
+    ``U``'s volume, ``W = vol X_out − vol X_in``, and each first (second)
+    moment about ``ref`` within ``W/2 · ρ`` (``W/2 · ρ²``), ``ρ`` the farthest
+    any vertex of ``X_out`` (plus its move) is from ``ref`` in any axis;
+  - *sharp*: ``E = X_in + Σ (P − P_in)`` (``P`` in closed form) counts the
+    bands ``B_j = P_j \\ P_j,in`` in full, where ``U`` counts them only outside
+    ``X_in`` and each other: the excess is ``f(B) = Σ vol B_j − vol(⋃ B_j \\
+    X_in)``.  ``f`` grows with each ``B_j`` (a point added to one adds 1 to the
+    sum and at most 1 to the union), and ``B_j ⊂ P_j,out \\ P_j,in``, so
+    ``0 ≤ f(B) ≤ w = Σ (vol P_j,out − vol P_j,in) − W``: the bands that lie in
+    the other geometries.  ``U``'s volume is ``E − w/2 ± w/2``, each moment
+    within ``w ρ`` or ``w ρ²``.
+
+  The smaller of ``w`` and ``W/2`` is taken.  Every other source is in the
+  pipeline's bounds: the arrangement's, the placement's and the
+  construction's rounding (swept volume of the moved vertices, as for
+  meshes), and the closed forms'.  ``n`` starts at 16 and jumps to where the
+  bound, which falls as ``1/n²``, should meet the tolerance, up to 1024
+  points around, 2¹⁹ triangles on the inner polyhedra and ``_TIME_BUDGET``
+  seconds (each mesh's triangles cut at their edges' midpoints, exactly,
+  until few polyhedron edges cross one: the arrangement's time grows with
+  their square); then a warning
+  says to what the mass and inertia are known.  Convergence is quadratic in
+  ``n``, but only where ``P``'s surface lies outside the others (``w``) or
+  inside them (``W``): a primitive half in a mesh keeps about half its band,
+  about 1e-5 of a sphere's volume at the budget.
+
+* **Otherwise** (different densities, meshes not read as closed surfaces,
+  ``on_open``, a union that failed its checks) the geometries stay whole.  Two
   spheres are decided exactly (``|c₁ − c₂| ≥ r₁ + r₂``); otherwise the volume
   counted twice is at most ``U``, the smaller of the boxes' intersection and
   either volume.  The error bounds are widened to cover the union: a
@@ -44,17 +88,19 @@ permutation, else widened by the rounding of the placement) are decided:
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
 import numpy as np
 
 from ..core.rounding import U as _U
-from ..model.errors import MassPropsError
+from ..model.errors import MassPropsError, option
 from ..mesh.shells import joined_groups
 from ..model.combine import combine_parts
 from .units import volume_text
 from .model import PRIMITIVES
+from .tessellate import CURVED
 
 __all__ = ["LinkSolid", "link_solid"]
 
@@ -101,27 +147,24 @@ def link_solid(link_name, results, *, repair=False, tolerance=DEFAULT_TOLERANCE)
     pieces = [_piece(geometry, props, result) for geometry, props, result in results]
     pairs = [(i, j, _box_meet(pieces[i].box, pieces[j].box)) for i in range(len(pieces))
              for j in range(i + 1, len(pieces))]
-    pairs = [(i, j, volume) for i, j, volume in pairs if volume > 0]
-    unitable = [(i, j) for i, j, _ in pairs if _unitable(pieces[i], pieces[j])]
+    pairs = [(i, j, volume) for i, j, volume in pairs if volume > 0 and not _apart(pieces[i], pieces[j])]
+    joined = [(i, j) for i, j, _ in pairs if _joinable(pieces[i], pieces[j])]
+    unresolved = [(i, j, v) for i, j, v in pairs if (i, j) not in set(joined)]
     warnings, parts = [], []
-    unresolved = [(i, j, v) for i, j, v in pairs if (i, j) not in set(unitable) and not _apart(pieces[i], pieces[j])]
-    clusters = _clusters(pieces, unitable, unresolved)
-    clustered = {k for cluster in clusters for k in cluster}
-    unresolved = [(i, j, v) for i, j, v in unresolved if i not in clustered]
-    for cluster in clusters:
-        part, said, facts = _curved_union(link_name, [pieces[k] for k in cluster], tolerance)
-        parts.append(part)
-        warnings += said
-        checks["overlap"] += facts["overlap"]
-        checks.setdefault("united", []).append([pieces[k].name for k in cluster])
-    for group in joined_groups(range(len(pieces)), np.array(unitable, dtype=np.int64).reshape(-1, 2)):
+    for group in joined_groups(range(len(pieces)), np.array(joined, dtype=np.int64).reshape(-1, 2)):
         members = [pieces[k] for k in group]
         if len(group) == 1:
-            if group[0] not in clustered:
-                parts.append(members[0].props)
+            parts.append(members[0].props)
             continue
+        meshes = any(m.kind not in PRIMITIVES for m in members)
+        curved = any(m.kind in CURVED for m in members)
         try:
-            part, facts, said = _united(link_name, members, repair)
+            if not curved:
+                part, facts, said = _united(link_name, members, repair)
+            elif not meshes:
+                part, facts, said = _curved_union(link_name, members, tolerance)
+            else:
+                part, facts, said = _mixed(link_name, members, repair, tolerance)
         except MassPropsError as exc:
             warnings.append(f"link {link_name!r}: geometries {_names(members)} may overlap, but their union failed "
                             f"({exc.problem}): each is counted whole")
@@ -148,26 +191,8 @@ def link_solid(link_name, results, *, repair=False, tolerance=DEFAULT_TOLERANCE)
     return LinkSolid(total, checks, tuple(warnings))
 
 
-def _clusters(pieces, unitable, unresolved):
-    """Groups of primitives of one density whose overlaps are computed (:mod:`massprops.robot.curved`).
-
-    A group joins the primitives that may overlap; it is computed when none
-    of them may also overlap a mesh, a geometry of another density, or is a box
-    united with others through the arrangement.
-    """
-    def eligible(piece):
-        return piece.kind in PRIMITIVES and piece.props.density > 0
-    united = {k for pair in unitable for k in pair}
-    curved = [(i, j) for i, j, _ in unresolved if eligible(pieces[i]) and eligible(pieces[j])
-              and pieces[i].props.density == pieces[j].props.density]
-    blocked = {k for i, j, _ in unresolved if (i, j) not in set(curved) for k in (i, j)} | united
-    groups = joined_groups(range(len(pieces)), np.array(curved, dtype=np.int64).reshape(-1, 2))
-    return [sorted(int(k) for k in group) for group in groups
-            if len(group) > 1 and not any(k in blocked for k in group)]
-
-
 def _curved_union(link_name, members, tolerance):
-    """``(props, warnings, facts)``: the union of a group of primitives, computed (see the module docstring)."""
+    """``(parts, facts, warnings)``: the union of a group of primitives, computed (see the module docstring)."""
     from .curved import cluster_union, prims_of, props_of, raw_of
     summed = combine_parts([m.props for m in members])
     total = raw_of(summed)
@@ -180,20 +205,33 @@ def _curved_union(link_name, members, tolerance):
     area = sum(m.props.surface_area for m in members)
     props = props_of(found.raw, density, area)
     if props is None:
-        return summed, [f"link {link_name!r}: geometries {_names(members)} overlap and their union could not be "
-                        "bounded: each is counted whole"], {"overlap": 0.0}
+        raise MassPropsError("its bound exceeds its volume")
     twice = total.volume - found.raw.volume
     said = []
     if twice > found.raw.e_volume + total.e_volume:
         said.append(f"link {link_name!r}: geometries {_names(members)} overlap by {volume_text(twice)}: the link is their "
                     "union, each point counted once (checks.overlap)")
-    if found.spent:
-        relative = max(props.error.mass / props.mass, props.error.inertia_com / max(float(np.abs(
-            props.inertia_com).max()), 1e-300))
+    placed = combine_parts([props])
+    relative = max(placed.error.mass / placed.mass, placed.error.inertia_com / max(float(np.abs(
+        placed.inertia_com).max()), 1e-300))
+    if relative > tolerance:
+        # The grid converges linearly; polyhedra inside and around the curved ones, through the exact arrangement,
+        # converge quadratically: taken when tighter.
+        curved = [m for m in members if m.kind in CURVED]
+        boxes = [m for m in members if m.kind not in CURVED]
+        if all(m.surface is not None for m in boxes):
+            try:
+                part, facts, words = _tessellated(link_name, boxes, curved, False, tolerance)
+            except MassPropsError:
+                part = None
+            if part is not None and facts["relative"] < relative:
+                facts["united"] = True
+                return part, facts, words
         said.append(f"link {link_name!r}: the overlap of geometries {_names(members)} is computed to within "
                     f"{relative:.1e} of the link's mass and inertia, not the {tolerance:g} asked "
-                    "({tolerance}): the refinement stopped at its budget")
-    return props, said, {"overlap": max(twice, 0.0)}
+                    "({tolerance}): " + ("the refinement stopped at its budget" if found.spent else
+                                         "members modelled on a common axis they are off by more than rounding"))
+    return [props], {"overlap": max(twice, 0.0), "united": True}, said
 
 
 def _names(members):
@@ -269,8 +307,11 @@ def _box_meet(a, b):
     return volume
 
 
-def _unitable(a, b):
-    return a.surface is not None and b.surface is not None and a.props.density == b.props.density
+def _joinable(a, b):
+    """United (not kept whole): one positive density, each a closed surface (mesh, box) or a curved primitive."""
+    def eligible(piece):
+        return piece.surface is not None or (piece.kind in CURVED and piece.props.density > 0)
+    return eligible(a) and eligible(b) and a.props.density == b.props.density
 
 
 def _apart(a, b):
@@ -378,6 +419,220 @@ def _within(summed, union):
                     inertia_com=max(summed.error.inertia_com, gap(summed.inertia_com, union.inertia_com)
                                     + union.error.inertia_com))
     return replace(summed, error=error)
+
+
+# -- curved primitives meeting meshes -------------------------------------------------
+
+_FACE_BUDGET = 1 << 19          # triangles of the inner polyhedra together, at the finest refinement
+_FIRST_SEGMENTS = 16            # points around each circle at the first refinement
+_TIME_BUDGET = 10.0             # seconds a union may take to refine (a level is not started beyond it)
+_MOST_SEGMENTS = 1024          # points around at most: a face a ring cuts has as many edges, triangulated
+
+
+def _mixed(link_name, members, repair, tolerance):
+    """``(parts, facts, warnings)`` for meshes, boxes and curved primitives whose boxes meet (module docstring).
+
+    Certified first, no tessellation: a mesh or box whose every vertex lies in a curved primitive is inside it
+    (counted once); a curved primitive a plane separates from every mesh and box, and from every other curved
+    primitive, is apart (counted whole).
+    """
+    from .curved import _separated, prims_of
+    from .tessellate import apart, inside_all
+    solids = [m for m in members if m.kind not in CURVED]
+    curved = [m for m in members if m.kind in CURVED]
+    said, facts, parts = [], {"overlap": 0.0, "united": True}, []
+    kept = []
+    for solid in solids:
+        host = next((c for c in curved if inside_all(c.kind, c.size, c.props.pose, solid.surface, solid.placed)),
+                    None)
+        if host is None:
+            kept.append(solid)
+            continue
+        facts["overlap"] += solid.props.volume
+        said.append(f"link {link_name!r}: {solid.kind} {solid.name!r} lies inside {host.kind} {host.name!r} "
+                    f"({volume_text(solid.props.volume)}): counted once (checks.overlap)")
+    prims = dict(zip((id(c) for c in curved), prims_of(curved)))
+    eps = 64 * _U * max(float(np.abs(c.props.pose.translation).max()) + max(float(b - a) for a, b in
+                                                                             zip(*c.box)) for c in curved)
+
+    def alone(c):
+        return (all(apart(c.kind, c.size, c.props.pose, s.placed) for s in kept)
+                and all(_box_meet(c.box, d.box) == 0 or _separated(prims[id(c)], prims[id(d)], eps)
+                        for d in curved if d is not c))
+    loose = [c for c in curved if alone(c)]
+    parts += [c.props for c in loose]
+    curved = [c for c in curved if not any(c is x for x in loose)]
+    touching = [c for c in curved if not all(apart(c.kind, c.size, c.props.pose, s.placed) for s in kept)]
+    if not touching:                          # the curved ones meet only each other: their own union
+        for group, union in ((kept, _united), (curved, None)):
+            if len(group) == 1:
+                parts.append(group[0].props)
+            elif len(group) > 1:
+                part, more, words = (union(link_name, group, repair) if union
+                                     else _curved_union(link_name, group, tolerance))
+                parts += part
+                facts["overlap"] += more.get("overlap", 0.0)
+                facts["duplicate_shells"] = facts.get("duplicate_shells", 0) + more.get("duplicate_shells", 0)
+                said += words
+        return parts, facts, said
+    part, more, words = _tessellated(link_name, kept, curved, repair, tolerance)
+    facts["overlap"] += more["overlap"]
+    return parts + part, facts, said + words
+
+
+def _union_props(placed, density, repair):
+    """:class:`MassProperties` (link frame) of the union of placed surfaces, bounds covering their moves."""
+    from ..compute import checked_solid
+    from ..mesh.solid import swept_volume, widened
+    from ..model.properties import MassProperties
+    mesh, moved = _combined(placed)
+    checked = checked_solid(mesh, repair=repair)
+    touched = np.flatnonzero(moved)
+    swept = swept_volume(mesh.vertices, mesh.faces, touched, moved[touched])
+    moments = widened(checked.moments, mesh.vertices, swept=swept, reach=float(moved.max()))
+    return MassProperties.from_moments(moments, density=density)
+
+
+def _polyhedron(member, segments, outer):
+    """The inner or outer polyhedron of a curved primitive, placed: ``(vertices, faces, move bound)``."""
+    from ..mesh import TriangleMesh
+    from .geometry import Surface
+    from .tessellate import tessellation
+    vertices, faces, delta = tessellation(member.kind, member.size, segments, outer)
+    points, faces, moved = _placed(Surface(TriangleMesh(vertices, faces), np.eye(3), member.props.pose))
+    return points, faces, moved + delta * (1 + 1e-6)
+
+
+def _subdivided(placed, longest, most=1 << 12):
+    """A placed surface ``(vertices, faces, moves)`` with each triangle cut into 4 at its edges' midpoints until no
+    edge is longer than ``longest`` (or the faces would pass ``most``): the same surface, exactly (a midpoint of
+    floats is a float, within the larger move of its ends of the exact midpoint).  A face a fine polyhedron crosses
+    is then cut by few of its edges, which the arrangement resolves in time linear, not quadratic, in them."""
+    points, faces, moved = placed
+    while faces.shape[0] * 4 <= most:
+        edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        lengths = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+        if float(lengths.max()) <= longest:
+            break
+        keys = np.sort(edges, axis=1)
+        unique, index = np.unique(keys, axis=0, return_inverse=True)
+        index = index.reshape(-1)
+        middle = (points[unique[:, 0]] + points[unique[:, 1]]) / 2
+        reach = np.maximum(moved[unique[:, 0]], moved[unique[:, 1]])
+        base = points.shape[0]
+        m = faces.shape[0]
+        ab, bc, ca = (base + index[:m], base + index[m:2 * m], base + index[2 * m:])
+        a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+        faces = np.vstack([np.column_stack([a, ab, ca]), np.column_stack([ab, b, bc]),
+                           np.column_stack([ca, bc, c]), np.column_stack([ab, bc, ca])]).astype(np.int64)
+        points = np.vstack([points, middle])
+        moved = np.concatenate([moved, reach])
+    return points, faces, moved
+
+
+def _meeting_reach(surfaces, outer, ref):
+    """The farthest, per axis, from ``ref`` that a band ``P_j,out \\ P_j,in`` inside another geometry can be: over
+    the intersections of each outer polyhedron's box with every other geometry's box (vertices ± moves)."""
+    boxes = [(p[0].min(axis=0) - p[2].max(), p[0].max(axis=0) + p[2].max()) for p in surfaces + outer]
+    first = len(surfaces)
+    reach = 0.0
+    for j in range(first, len(boxes)):
+        for i in range(len(boxes)):
+            if i == j:
+                continue
+            low, high = np.maximum(boxes[i][0], boxes[j][0]), np.minimum(boxes[i][1], boxes[j][1])
+            if np.all(high >= low):
+                reach = max(reach, float(np.maximum(np.abs(low - ref), np.abs(high - ref)).max()))
+    return reach * (1 + 4 * _U)
+
+
+def _tessellated(link_name, solids, curved, repair, tolerance):
+    """``(parts, facts, warnings)``: the union of meshes and boxes ``solids`` and curved primitives ``curved``
+    of one density, refined until its bound is at most ``tolerance`` or the budget is spent (module docstring)."""
+    from .curved import Raw, props_of, raw_of
+    from .tessellate import faces_for
+    density = curved[0].props.density
+    summed = combine_parts([m.props for m in solids + curved])
+    surfaces = [s.placed for s in solids]
+    segments, finest = _FIRST_SEGMENTS, _FIRST_SEGMENTS
+    while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
+        finest *= 2
+    largest = max(max(float(b - a) for a, b in zip(*c.box)) for c in curved)
+    started = time.perf_counter()
+    stopped = "triangles"
+    while True:
+        level_started = time.perf_counter()
+        # Faces of the meshes and boxes cut to a few of the polyhedra's edges across (see _subdivided).
+        surfaces = [_subdivided(s.placed, 8 * math.pi * largest / segments) for s in solids]
+        inner = [_polyhedron(c, segments, False) for c in curved]
+        outer = [_polyhedron(c, segments, True) for c in curved]
+        x_in = _union_props(surfaces + inner, density, repair)
+        x_out = _union_props(surfaces + outer, density, repair)
+        p_in = [_union_props([p], density, False) for p in inner]
+        p_out = [_union_props([p], density, False) for p in outer]
+        grow = 1 + 16 * _U
+        # W: the volume between the two unions; w: the bands P_out \ P_in inside the other geometries.
+        band = sum((o.volume + o.error.volume) - (i.volume - i.error.volume) for i, o in zip(p_in, p_out)) * grow
+        between = ((x_out.volume + x_out.error.volume) - (x_in.volume - x_in.error.volume)) * grow
+        between_low = ((x_out.volume - x_out.error.volume) - (x_in.volume + x_in.error.volume)) / grow
+        inside = max(0.0, band - between_low) * grow
+        points = np.vstack([p[0] for p in surfaces + outer])
+        if inside < between / 2:
+            # The sharp estimate union(M, P_in) + Σ (P − P_in) counts the bands inside the others once too
+            # often: the union's volume lies in [E − w, E] (its middle taken), every moment within w·reach^k.
+            estimate = raw_of(x_in)
+            for c, p in zip(curved, p_in):
+                estimate = estimate + (raw_of(c.props) - raw_of(p))
+            estimate = replace(estimate, volume=estimate.volume - inside / 2,
+                               e_volume=estimate.e_volume * grow + inside / 2 + _U * abs(estimate.volume))
+            extra, how = inside, "sharp"
+        else:
+            # The union lies between union(M, P_in) and union(M, P_out): their middle, within W/2·reach^k.
+            low, high = raw_of(x_in), raw_of(x_out)
+            both = low + high
+            estimate = Raw(both.volume / 2, both.first / 2, both.second / 2, both.e_volume / 2, both.e_first / 2,
+                           both.e_second / 2, both.ref)
+            extra, how = between / 2, "between"
+        if how == "sharp":
+            reach = _meeting_reach(surfaces, outer, estimate.ref)
+        else:
+            reach = float(np.abs(points - estimate.ref).max()) + max(float(p[2].max()) for p in surfaces + outer)
+        reach *= 1 + 1e-9
+        estimate = Raw(estimate.volume, estimate.first, estimate.second,
+                       estimate.e_volume + (0.0 if how == "sharp" else extra),
+                       estimate.e_first + extra * reach, estimate.e_second + extra * reach * reach, estimate.ref)
+        props = props_of(estimate, density, x_in.surface_area)
+        if props is None:
+            raise MassPropsError("its bound exceeds its volume")
+        placed = combine_parts([props])       # as the link combines it: the center's bound reaches the inertia
+        relative = max(placed.error.mass / placed.mass,
+                       placed.error.inertia_com / max(float(np.abs(placed.inertia_com).max()), 1e-300))
+        if relative <= tolerance or segments >= finest:
+            break
+        # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget of triangles
+        # and of time (a level's time taken to grow at most as n², as it does where coplanar faces are cut).
+        spent = time.perf_counter() - started
+        last = time.perf_counter() - level_started
+        affordable = min(finest, segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3)))
+        wanted = segments * math.sqrt(relative / tolerance) * 1.2
+        step = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)), 4 * math.floor(affordable / 4))
+        if step <= segments:
+            stopped = "time"
+            break
+        segments = step
+    twice = summed.volume - props.volume
+    faces = sum(faces_for(c.kind, segments) for c in curved)
+    names = _names(solids + curved)
+    if twice > props.error.volume + summed.error.volume:
+        text = f"link {link_name!r}: geometries {names} overlap by about {volume_text(twice)}; counted once"
+    else:
+        text = f"link {link_name!r}: geometries {names} touch or overlap by less than their bound; united"
+    text += f" (checks.overlap), mass and inertia known to {relative:.1e}"
+    if relative > tolerance:
+        text += (f", not the {tolerance:g} asked ({option('tolerance')}): the refinement stopped at its budget "
+                 + (f"of {_TIME_BUDGET:g} s" if stopped == "time" else "of triangles")
+                 + f", {faces} on the curved ones")
+    return [props], {"overlap": max(twice, 0.0), "relative": relative, "segments": segments, "bound": how}, [text]
 
 
 # -- kept whole -------------------------------------------------------------------
