@@ -505,8 +505,9 @@ def _polyhedron(member, segments, outer):
 
 def _subdivided(placed, longest, most=1 << 12):
     """A placed surface ``(vertices, faces, moves)`` with each triangle cut into 4 at its edges' midpoints until no
-    edge is longer than ``longest`` (or the faces would pass ``most``): the same surface, exactly (a midpoint of
-    floats is a float, within the larger move of its ends of the exact midpoint).  A face a fine polyhedron crosses
+    edge is longer than ``longest`` (or the faces would pass ``most``): the same surface, each new vertex within
+    the larger move of its edge's ends, plus the rounding of ``(a + b) / 2`` (at most ``u |a + b| / 2`` a
+    coordinate), of the exact midpoint of the exact ends.  A face a fine polyhedron crosses
     is then cut by few of its edges, which the arrangement resolves in time linear, not quadratic, in them."""
     points, faces, moved = placed
     while faces.shape[0] * 4 <= most:
@@ -518,7 +519,8 @@ def _subdivided(placed, longest, most=1 << 12):
         unique, index = np.unique(keys, axis=0, return_inverse=True)
         index = index.reshape(-1)
         middle = (points[unique[:, 0]] + points[unique[:, 1]]) / 2
-        reach = np.maximum(moved[unique[:, 0]], moved[unique[:, 1]])
+        reach = (np.maximum(moved[unique[:, 0]], moved[unique[:, 1]])
+                 + _U * np.linalg.norm(middle, axis=1) * (1 + 8 * _U))
         base = points.shape[0]
         m = faces.shape[0]
         ab, bc, ca = (base + index[:m], base + index[m:2 * m], base + index[2 * m:])
