@@ -425,7 +425,7 @@ def _within(summed, union):
 
 _FACE_BUDGET = 1 << 19          # triangles of the inner polyhedra together, at the finest refinement
 _FIRST_SEGMENTS = 16            # points around each circle at the first refinement
-_TIME_BUDGET = 10.0             # seconds a union may take to refine (a level is not started beyond it)
+_TIME_BUDGET = 2.0              # seconds a union may take to refine (a level is not started beyond it)
 _MOST_SEGMENTS = 1024          # points around at most: a face a ring cuts has as many edges, triangulated
 
 
