@@ -1,7 +1,7 @@
 """Curved primitives overlapping meshes: their union, computed through inner and outer polyhedra with a bound that
 holds and shrinks with --tolerance.
 
-Oracles are closed forms written here (a cube plus the parts of a sphere, cylinder or capsule outside it: cylinder
+Oracles are closed forms (tests/union_oracle.py: a cube plus the parts of a sphere, cylinder or capsule outside it: cylinder
 slabs and spherical caps, in rationals times π) or exact sums."""
 
 import math
@@ -10,12 +10,12 @@ from fractions import Fraction as F
 import pytest
 
 from massprops.model.frames import Pose
-from massprops.robot.links import MassSettings, link_properties
-from massprops.robot.model import Geometry, Link, RobotModel
+from massprops.robot.model import Geometry
 from massprops.validation import solids
 
-U = 2.0 ** -53
-PI = F(math.pi)            # within 1.3e-16 relative of π: the comparisons allow 4u more
+from union_oracle import (PI, U, box as _box, cap as _cap, central, disk_slab as _disk_slab, link as _link,
+                          shifted as _shifted, within as _holds)
+
 CUBE = solids.cube()       # [-1/2, 1/2]³, outward
 
 
@@ -26,78 +26,12 @@ def _no_time_budget(monkeypatch):
     monkeypatch.setattr(overlap, "_TIME_BUDGET", math.inf)
 
 
-def _link(*geometries, tolerance=1e-9):
-    link = Link("l", geometries)
-    return link_properties(RobotModel("m.urdf", "urdf", "m", (link,)), link,
-                           MassSettings(density=1.0, tolerance=tolerance), None)
-
-
 def _mesh(scale=None, xyz=(0, 0, 0)):
     return Geometry("mesh", "collision", "hull", pose=Pose(translation=xyz), mesh=CUBE, scale=scale)
 
 
-def _shifted(raw, offset):
-    v, f, s = raw
-    f2 = [f[k] + v * offset[k] for k in range(3)]
-    s2 = [[s[a][b] + f[a] * offset[b] + offset[a] * f[b] + v * offset[a] * offset[b] for b in range(3)]
-          for a in range(3)]
-    return v, f2, s2
-
-
-def _disk_slab(r, lo, hi, x, y):
-    """Raw moments ``(V, ∫x, ∫x xᵀ)`` of the cylinder of radius ``r`` on ``lo ≤ z ≤ hi`` about the vertical
-    through ``(x, y)``."""
-    r2 = F(r) ** 2
-    sxx = PI * r2 * r2 * (hi - lo) / 4
-    raw = (PI * r2 * (hi - lo), [F(0), F(0), PI * r2 * (hi ** 2 - lo ** 2) / 2],
-           [[sxx, 0, 0], [0, sxx, 0], [0, 0, PI * r2 * (hi ** 3 - lo ** 3) / 3]])
-    return _shifted(raw, (x, y, F(0)))
-
-
-def _cap(r, centre, lo, hi, x, y):
-    """Raw moments of the part ``lo ≤ z ≤ hi`` of the ball of radius ``r`` at ``(x, y, centre)``."""
-    r = F(r)
-    a, b = lo - centre, hi - centre
-
-    def integral(n):       # ∫ w^n (r² − w²) dw over [a, b]
-        return r * r * (b ** (n + 1) - a ** (n + 1)) / (n + 1) - (b ** (n + 3) - a ** (n + 3)) / (n + 3)
-
-    sxx = PI * (r ** 4 * (b - a) - 2 * r * r * (b ** 3 - a ** 3) / 3 + (b ** 5 - a ** 5) / 5) / 4
-    raw = (PI * integral(0), [F(0), F(0), PI * integral(1)], [[sxx, 0, 0], [0, sxx, 0], [0, 0, PI * integral(2)]])
-    return _shifted(raw, (x, y, F(centre)))
-
-
-def _box(low, high):
-    v = F(1)
-    for lo, hi in zip(low, high):
-        v *= hi - lo
-    first = [v * (lo + hi) / 2 for lo, hi in zip(low, high)]
-    second = [[v * (low[a] + high[a]) * (low[b] + high[b]) / 4 if a != b else
-               v * (low[a] ** 2 + low[a] * high[a] + high[a] ** 2) / 3 for b in range(3)] for a in range(3)]
-    return v, first, second
-
-
 def _sum(*raws):
-    v = sum(r[0] for r in raws)
-    f = [sum(r[1][k] for r in raws) for k in range(3)]
-    m = [[sum(r[2][a][b] for r in raws) for b in range(3)] for a in range(3)]
-    c = [x / v for x in f]
-    central = [[m[a][b] - v * c[a] * c[b] for b in range(3)] for a in range(3)]
-    trace = sum(central[k][k] for k in range(3))
-    return v, c, [[(trace if a == b else 0) - central[a][b] for b in range(3)] for a in range(3)]
-
-
-def _holds(props, exact):
-    """Every value within its bound of the closed form; returns the relative bound of mass and inertia."""
-    volume, c, j = exact
-    scale_j = max(abs(float(x)) for row in j for x in row)
-    assert abs(F(props.volume) - volume) <= F(props.error.volume) + F(4 * U) * abs(volume)
-    for got, want in zip(props.center_of_mass.tolist(), c):
-        assert abs(F(got) - want) <= F(props.error.center_of_mass) + F(4 * U) * max(abs(x) for x in c)
-    for got_row, want_row in zip(props.inertia_com.tolist(), j):
-        for got, want in zip(got_row, want_row):
-            assert abs(F(got) - want) <= F(props.error.inertia_com) + F(4 * U) * F(scale_j)
-    return max(props.error.mass / props.mass, props.error.inertia_com / scale_j)
+    return central(*((1, r) for r in raws))
 
 
 HALF = F(1, 2)

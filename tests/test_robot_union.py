@@ -1,6 +1,6 @@
 """Overlapping primitives of a link: their union computed (each point once) with a bound at most the tolerance.
 
-Oracles are closed forms written here: a union cut into pieces whose moments are textbook integrals (cylinder
+Oracles are closed forms (tests/union_oracle.py): a union cut into pieces whose moments are textbook integrals (cylinder
 slabs, spherical caps, boxes), in rationals times π."""
 
 import math
@@ -10,87 +10,21 @@ import numpy as np
 import pytest
 
 from massprops.model.frames import Pose
-from massprops.robot.links import MassSettings, link_properties
-from massprops.robot.model import Geometry, Link, RobotModel, rpy_rotation
+from massprops.robot.model import Geometry, rpy_rotation
 
-U = 2.0 ** -53
-PI = F(math.pi)            # math.pi is within 1.3e-16 relative of π: the comparisons allow 4u more
-
-
-def _link(*geometries, tolerance=1e-9):
-    link = Link("l", geometries)
-    return link_properties(RobotModel("m.urdf", "urdf", "m", (link,)), link,
-                           MassSettings(density=1.0, tolerance=tolerance), None)
-
-
-def _disk_slab(r, lo, hi, x=F(0), y=F(0)):
-    """Raw moments ``(V, ∫x, ∫x xᵀ)`` of the cylinder of radius ``r`` on ``lo ≤ z ≤ hi`` about the vertical axis
-    through ``(x, y)``."""
-    r2 = F(r) ** 2
-    length = hi - lo
-    v = PI * r2 * length
-    fz = PI * r2 * (hi ** 2 - lo ** 2) / 2
-    szz = PI * r2 * (hi ** 3 - lo ** 3) / 3
-    sxx = PI * r2 * r2 * length / 4
-    return _shifted((v, [F(0), F(0), fz], [[sxx, 0, 0], [0, sxx, 0], [0, 0, szz]]), (x, y, F(0)))
-
-
-def _cap(r, centre, lo, hi):
-    """Raw moments of the part ``lo ≤ z ≤ hi`` of the ball of radius ``r`` at ``(0, 0, centre)``:
-    ``R(z)² = r² − (z − c)²``, integrated term by term."""
-    r = F(r)
-    a, b = lo - centre, hi - centre                      # in the ball's own z
-
-    def integral(n):       # ∫ w^n (r² − w²) dw over [a, b]
-        return r * r * (b ** (n + 1) - a ** (n + 1)) / (n + 1) - (b ** (n + 3) - a ** (n + 3)) / (n + 3)
-
-    quartic = (r ** 4 * (b - a) - 2 * r * r * (b ** 3 - a ** 3) / 3 + (b ** 5 - a ** 5) / 5)
-    v = PI * integral(0)
-    fw = PI * integral(1)
-    sww = PI * integral(2)
-    sxx = PI * quartic / 4
-    return _shifted((v, [F(0), F(0), fw], [[sxx, 0, 0], [0, sxx, 0], [0, 0, sww]]), (F(0), F(0), F(centre)))
-
-
-def _box(low, high):
-    v = F(1)
-    for lo, hi in zip(low, high):
-        v *= hi - lo
-    first = [v * (lo + hi) / 2 for lo, hi in zip(low, high)]
-    second = [[v * (low[a] + high[a]) * (low[b] + high[b]) / 4 if a != b else
-               v * (low[a] ** 2 + low[a] * high[a] + high[a] ** 2) / 3 for b in range(3)] for a in range(3)]
-    return v, first, second
-
-
-def _shifted(raw, offset):
-    """Raw moments of a region moved by ``offset``."""
-    v, f, s = raw
-    f2 = [f[k] + v * offset[k] for k in range(3)]
-    s2 = [[s[a][b] + f[a] * offset[b] + offset[a] * f[b] + v * offset[a] * offset[b] for b in range(3)]
-          for a in range(3)]
-    return v, f2, s2
+from union_oracle import (U, box as _box, cap as _cap, central, disk_slab as _disk_slab, link as _link,
+                          shifted as _shifted, within)
 
 
 def _sum(*signed):
-    v = sum(s * r[0] for s, r in signed)
-    f = [sum(s * r[1][k] for s, r in signed) for k in range(3)]
-    m = [[sum(s * r[2][a][b] for s, r in signed) for b in range(3)] for a in range(3)]
-    c = [x / v for x in f]
-    central = [[m[a][b] - v * c[a] * c[b] for b in range(3)] for a in range(3)]
-    trace = sum(central[k][k] for k in range(3))
-    return v, c, [[(trace if a == b else 0) - central[a][b] for b in range(3)] for a in range(3)]
+    return central(*signed)
 
 
 def _holds(props, exact, tolerance=1e-9):
     """Every value within its bound of the closed form, and every bound at most the tolerance (relative)."""
+    within(props, exact)
     volume, c, j = exact
     scale_j = max(abs(float(x)) for row in j for x in row)
-    assert abs(F(props.volume) - volume) <= F(props.error.volume) + F(4 * U) * abs(volume)
-    for got, want in zip(props.center_of_mass.tolist(), c):
-        assert abs(F(got) - want) <= F(props.error.center_of_mass) + F(4 * U) * max(abs(x) for x in c)
-    for got_row, want_row in zip(props.inertia_com.tolist(), j):
-        for got, want in zip(got_row, want_row):
-            assert abs(F(got) - want) <= F(props.error.inertia_com) + F(4 * U) * F(scale_j)
     assert props.error.volume <= tolerance * props.volume
     assert props.error.mass <= tolerance * props.mass
     assert props.error.inertia_com <= tolerance * scale_j
