@@ -54,19 +54,29 @@ def test_a_bad_binary_stl_also_fails_without_heavy_imports(tmp_path):
 # its methods this way (about 0.3 ms each), which start-up does without (massprops.model.records);
 # and any other text compiled (a NamedTuple's annotations and the __new__ namedtuple evaluates),
 # seen by the interpreter's audit hook (a module's own source, when no bytecode is cached, is not
-# generated code).
+# generated code).  Text is massprops' when the first frame that asked for it outside the standard
+# library is in massprops (a stdlib module's own namedtuple, loaded first by massprops under an old
+# numpy, is not).
 GENERATED = """
-import builtins, json, sys
+import builtins, json, os, sys, sysconfig
 import numpy, click
 found = []
+stdlib = os.path.realpath(sysconfig.get_paths()["stdlib"])
+def ours(frame):
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if not (name.startswith("<frozen") or os.path.realpath(name).startswith(stdlib + os.sep)):
+            return "massprops" in os.path.realpath(name).split(os.sep)
+        frame = frame.f_back
+    return False
 original = builtins.exec
 def counting(source, *args, **kwargs):
-    if isinstance(source, (str, bytes)):
+    if isinstance(source, (str, bytes)) and ours(sys._getframe(1)):
         found.append(sys._getframe(1).f_code.co_filename)
     return original(source, *args, **kwargs)
 builtins.exec = counting
 def audit(event, args):
-    if event == "compile" and not str(args[1]).endswith(".py"):
+    if event == "compile" and not str(args[1]).endswith(".py") and ours(sys._getframe(1)):
         found.append(f"compile {args[1]}")
 sys.addaudithook(audit)
 import massprops, massprops.cli, massprops.cli.props, massprops.mesh.solid, massprops.mesh.shells, massprops.report
