@@ -1188,6 +1188,24 @@ static int along(const Shared *s, const Pt *p, const Pt *q, const End *ep, const
     return sign ? sign : (same_end(s, ep, eq) ? 0 : 2);
 }
 
+/* The lowest and highest of pts[0..n) along `axis` (the first of equals), as _span; -1 when a
+ * comparison is unsure. */
+static int extremes(const Shared *s, const Pt *pts, const End *ends, int n, int axis, int *low, int *high)
+{
+    *low = *high = 0;
+    for (int k = 1; k < n; k++) {
+        int lo = along(s, pts + k, pts + *low, ends + k, ends + *low, axis);
+        int hi = along(s, pts + k, pts + *high, ends + k, ends + *high, axis);
+        if (lo == 2 || hi == 2)
+            return -1;
+        if (lo < 0)
+            *low = k;
+        if (hi > 0)
+            *high = k;
+    }
+    return 0;
+}
+
 /* The points of face f's triangle on the plane of face g: its vertices there, its edges crossing it. */
 static int on_plane(const Shared *s, int64_t f, int64_t g, const int *level, End *ends, Pt *pts)
 {
@@ -1240,27 +1258,10 @@ static void pair_segment(Shared *s, int64_t q)
     for (int k = 1; k < 3; k++)
         if (fabs(d[k].v) > fabs(d[axis].v))
             axis = k;
-    int low_t = 0, high_t = 0, low_u = 0, high_u = 0;
-    for (int k = 1; k < n_t; k++) {
-        int lo = along(s, pts_t + k, pts_t + low_t, ends_t + k, ends_t + low_t, axis);
-        int hi = along(s, pts_t + k, pts_t + high_t, ends_t + k, ends_t + high_t, axis);
-        if (lo == 2 || hi == 2)
-            goto unsure;
-        if (lo < 0)
-            low_t = k;
-        if (hi > 0)
-            high_t = k;
-    }
-    for (int k = 1; k < n_u; k++) {
-        int lo = along(s, pts_u + k, pts_u + low_u, ends_u + k, ends_u + low_u, axis);
-        int hi = along(s, pts_u + k, pts_u + high_u, ends_u + k, ends_u + high_u, axis);
-        if (lo == 2 || hi == 2)
-            goto unsure;
-        if (lo < 0)
-            low_u = k;
-        if (hi > 0)
-            high_u = k;
-    }
+    int low_t, high_t, low_u, high_u;
+    if (extremes(s, pts_t, ends_t, n_t, axis, &low_t, &high_t) < 0
+        || extremes(s, pts_u, ends_u, n_u, axis, &low_u, &high_u) < 0)
+        goto unsure;
     int lows = along(s, pts_t + low_t, pts_u + low_u, ends_t + low_t, ends_u + low_u, axis);
     int highs = along(s, pts_t + high_t, pts_u + high_u, ends_t + high_t, ends_u + high_u, axis);
     if (lows == 2 || highs == 2)
