@@ -369,6 +369,27 @@ static int first_use_source(void *context, int64_t first, int64_t count, double 
     return 0;
 }
 
+/* Corner k's vertex index, or -1 (and the failure) when it names no vertex. */
+static int64_t corner_index(const void *faces, int faces32, int64_t k, int64_t n, Failure *failure)
+{
+    int64_t given = faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
+    if (given >= 0 && given < n)
+        return given;
+    fail(failure, ERR_INDEX, "re-export the mesh", "face %lld refers to vertex %lld, but there are %lld vertices",
+         (long long)(k / 3), (long long)given, (long long)n);
+    return -1;
+}
+
+/* Vertices no face uses (used[k] < 0) that are not finite: they are left out, and counted. */
+static int64_t unused_nonfinite(const double *vertices, const int64_t *used, int64_t n)
+{
+    int64_t k, count = 0;
+    for (k = 0; k < n; k++)
+        count += used[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
+                                  && isfinite(vertices[3 * k + 2]));
+    return count;
+}
+
 /* Every corner welded in order, one point at a time (a vertex used again takes its number): for
  * small meshes, whose table stays in cache. */
 static int weld_direct(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
@@ -388,23 +409,16 @@ static int weld_direct(const double *vertices, int64_t n, const void *faces, int
     for (k = 0; k < n; k++)
         renumber[k] = -1;
     for (k = 0; k < 3 * m; k++) {
-        int64_t given = faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
-        if (given < 0 || given >= n) {
-            fail(failure, ERR_INDEX, "re-export the mesh",
-                 "face %lld refers to vertex %lld, but there are %lld vertices", (long long)(k / 3),
-                 (long long)given, (long long)n);
+        int64_t given = corner_index(faces, faces32, k, n, failure);
+        if (given < 0)
             break;
-        }
         if (renumber[given] < 0 && (renumber[given] = weld_point64(&w, vertices + 3 * given)) < 0) {
             fail(failure, ERR_MEMORY, NULL, "out of memory");
             break;
         }
         out->faces[k] = renumber[given];
     }
-    out->ignored = 0;
-    for (k = 0; k < n && failure->kind == ERR_NONE; k++)
-        out->ignored += renumber[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
-                                             && isfinite(vertices[3 * k + 2]));
+    out->ignored = failure->kind == ERR_NONE ? unused_nonfinite(vertices, renumber, n) : 0;
     free(renumber);
     if (failure->kind != ERR_NONE) {
         welder_free(&w);
@@ -453,23 +467,16 @@ int weld_indexed(const double *vertices, int64_t n, const void *faces, int faces
     for (k = 0; k < n; k++)
         rank[k] = -1;
     for (k = 0; k < 3 * m; k++) {
-        int64_t given = faces32 ? ((const int32_t *)faces)[k] : ((const int64_t *)faces)[k];
-        if (given < 0 || given >= n) {
-            fail(failure, ERR_INDEX, "re-export the mesh",
-                 "face %lld refers to vertex %lld, but there are %lld vertices", (long long)(k / 3),
-                 (long long)given, (long long)n);
+        int64_t given = corner_index(faces, faces32, k, n, failure);
+        if (given < 0)
             break;
-        }
         if (rank[given] < 0) {
             rank[given] = count;
             order[count++] = given;
         }
         out->faces[k] = rank[given];
     }
-    out->ignored = 0;
-    for (k = 0; k < n && failure->kind == ERR_NONE; k++)
-        out->ignored += rank[k] < 0 && !(isfinite(vertices[3 * k]) && isfinite(vertices[3 * k + 1])
-                                         && isfinite(vertices[3 * k + 2]));
+    out->ignored = failure->kind == ERR_NONE ? unused_nonfinite(vertices, rank, n) : 0;
     free(rank);
     if (failure->kind == ERR_NONE) {
         uses.vertices = vertices;
