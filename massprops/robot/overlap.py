@@ -441,28 +441,29 @@ def _mixed(link_name, members, repair, tolerance):
     solids = [m for m in members if m.kind not in CURVED]
     curved = [m for m in members if m.kind in CURVED]
     said, facts, parts = [], {"overlap": 0.0, "united": True}, []
+    prims = dict(zip((id(c) for c in curved), prims_of(curved)))
     kept = []
     for solid in solids:
-        host = next((c for c in curved if inside_all(c.kind, c.size, c.props.pose, solid.surface, solid.placed)),
-                    None)
+        host = next((c for c in curved if inside_all(prims[id(c)], solid.surface, solid.placed)), None)
         if host is None:
             kept.append(solid)
             continue
         facts["overlap"] += solid.props.volume
         said.append(f"link {link_name!r}: {solid.kind} {solid.name!r} lies inside {host.kind} {host.name!r} "
                     f"({volume_text(solid.props.volume)}): counted once (checks.overlap)")
-    prims = dict(zip((id(c) for c in curved), prims_of(curved)))
     eps = 64 * _U * max(float(np.abs(c.props.pose.translation).max()) + max(float(b - a) for a, b in
                                                                              zip(*c.box)) for c in curved)
 
+    off_solids = {id(c): all(apart(prims[id(c)], s.placed) for s in kept) for c in curved}
+
     def alone(c):
-        return (all(apart(c.kind, c.size, c.props.pose, s.placed) for s in kept)
+        return (off_solids[id(c)]
                 and all(_box_meet(c.box, d.box) == 0 or _separated(prims[id(c)], prims[id(d)], eps)
                         for d in curved if d is not c))
     loose = [c for c in curved if alone(c)]
     parts += [c.props for c in loose]
     curved = [c for c in curved if not any(c is x for x in loose)]
-    touching = [c for c in curved if not all(apart(c.kind, c.size, c.props.pose, s.placed) for s in kept)]
+    touching = [c for c in curved if not off_solids[id(c)]]
     if not touching:                          # the curved ones meet only each other: their own union
         for group, union in ((kept, _united), (curved, None)):
             if len(group) == 1:

@@ -129,23 +129,6 @@ def _inside_local(kind, size, y):
     return across * (2 * h) ** 2 <= (r * (h - y[2])) ** 2
 
 
-def _g(kind, size, y):
-    """A 1-Lipschitz function of own-frame points (floats, (k, 3)): negative inside, positive outside."""
-    if kind == "ellipsoid":
-        d = np.asarray(_dims(kind, size))
-        return (np.linalg.norm(y / d, axis=1) - 1) * float(d.min())
-    if kind == "sphere":
-        return np.linalg.norm(y, axis=1) - _dims(kind, size)[0]
-    r, h = _dims(kind, size)
-    radial = np.hypot(y[:, 0], y[:, 1])
-    if kind == "cylinder":
-        return np.maximum(radial - r, np.abs(y[:, 2]) - h)
-    if kind == "capsule":
-        return np.hypot(radial, y[:, 2] - np.clip(y[:, 2], -h, h)) - r
-    side = (radial - r * (h - y[:, 2]) / (2 * h)) / math.hypot(1.0, r / (2 * h))
-    return np.maximum(-y[:, 2] - h, side)
-
-
 def _exact_point(x, linear, pose):
     """``R (L x) + t`` in Fractions (the exactly placed vertex)."""
     local = [sum(Fraction(float(linear[i, k])) * Fraction(float(x[k])) for k in range(3)) for i in range(3)]
@@ -165,19 +148,19 @@ def _exact_inverse(matrix):
     return [[cof[i][j] / det for j in range(3)] for i in range(3)]
 
 
-def inside_all(kind, size, pose, surface, placed, exact_budget=20_000):
-    """Certified: every point of the placed ``surface`` (a closed mesh, exactly placed) lies in the primitive at
-    ``pose``, so the mesh's solid (inside the hull of its vertices) does too, the primitive being convex.
+def inside_all(prim, surface, placed, exact_budget=20_000):
+    """Certified: every point of the placed ``surface`` (a closed mesh, exactly placed) lies in the curved
+    primitive ``prim`` (:func:`massprops.robot.curved.prims_of`), so the mesh's solid (inside the hull of its
+    vertices) does too, the primitive being convex.
 
-    Floats first: a vertex whose own-frame point ``y`` has ``g(y)`` below minus its move and rounding is inside;
-    the others are decided in exact rationals (``y = R⁻¹ (R' L x + t' − t)``), at most ``exact_budget``.
+    Floats first: a vertex where the primitive's 1-Lipschitz ``g`` is below minus its move and rounding is
+    inside; the others are decided in exact rationals (``y = R⁻¹ (R' L x + t' − t)``), at most ``exact_budget``.
     """
     points, _, moved = placed
-    rotation, t = pose.rotation, pose.translation
-    y = (points - t) @ rotation
-    scale = float(np.abs(points).max()) + float(np.abs(t).max()) + max(_dims(kind, size))
+    kind, size, rotation, t = prim.kind, prim.size, prim.rotation, prim.translation
+    scale = float(np.abs(points).max()) + float(np.abs(t).max()) + float(np.max(prim.dims()))
     margin = moved * (1 + 1e-6) + 64 * _U * scale
-    g = _g(kind, size, y)
+    g = prim.g(points)
     if np.any(g > margin):
         return False
     unsure = np.flatnonzero(g >= -margin)
@@ -199,38 +182,20 @@ def inside_all(kind, size, pose, surface, placed, exact_budget=20_000):
     return True
 
 
-def support(kind, size, pose, direction):
-    """``max d·x`` over the primitive (a float; callers add a margin)."""
-    local = pose.rotation.T @ direction
-    base = float(direction @ pose.translation)
-    d = _dims(kind, size)
-    if kind == "sphere":
-        return base + d[0] * float(np.linalg.norm(local))
-    if kind == "ellipsoid":
-        return base + float(np.linalg.norm(local * np.asarray(d)))
-    r, h = d
-    across = float(np.hypot(local[0], local[1]))
-    if kind == "cylinder":
-        return base + h * abs(float(local[2])) + r * across
-    if kind == "capsule":
-        return base + h * abs(float(local[2])) + r * float(np.linalg.norm(local))
-    return base + max(h * float(local[2]), -h * float(local[2]) + r * across)
-
-
-def apart(kind, size, pose, placed):
-    """Certified: a plane separates the primitive from the placed mesh's vertices (so from its solid, which lies
-    in their hull), with a margin over the moves and the rounding of the support functions."""
+def apart(prim, placed):
+    """Certified: a plane separates the curved primitive ``prim`` from the placed mesh's vertices (so from its
+    solid, which lies in their hull), with a margin over the moves and the rounding of the support functions."""
     points, _, moved = placed
-    scale = float(np.abs(points).max()) + float(np.abs(pose.translation).max()) + max(_dims(kind, size)) * 2
+    scale = float(np.abs(points).max()) + float(np.abs(prim.translation).max()) + float(np.max(prim.dims())) * 2
     eps = 64 * _U * scale + float(moved.max()) * (1 + 1e-6)
     centre = points.mean(axis=0)
-    candidates = [centre - pose.translation, *pose.rotation.T, *np.eye(3)]
+    candidates = [centre - prim.translation, *prim.rotation.T, *np.eye(3)]
     for d in candidates:
         length = float(np.linalg.norm(d))
         if not length > 0:
             continue
         for direction in (d / length, -d / length):
             # The primitive below the plane d·x = s, every vertex above it.
-            if support(kind, size, pose, direction) + eps < float((points @ direction).min()):
+            if prim.support(direction) + eps < float((points @ direction).min()):
                 return True
     return False
