@@ -64,7 +64,7 @@ permutation, else widened by the rounding of the placement) are decided:
   meshes), and the closed forms'.  ``n`` starts at 16 and jumps to where the
   bound, which falls as ``1/n²``, should meet the tolerance, up to 1024
   points around, 2¹⁹ triangles on the inner polyhedra and ``_TIME_BUDGET``
-  seconds (each mesh's triangles cut at their edges' midpoints, exactly,
+  seconds of the process's processor time, not wall time (each mesh's triangles cut at their edges' midpoints, exactly,
   until few polyhedron edges cross one: the arrangement's time grows with
   their square); then a warning
   says to what the mass and inertia are known.  Convergence is quadratic in
@@ -425,7 +425,8 @@ def _within(summed, union):
 
 _FACE_BUDGET = 1 << 19          # triangles of the inner polyhedra together, at the finest refinement
 _FIRST_SEGMENTS = 16            # points around each circle at the first refinement
-_TIME_BUDGET = 2.0              # seconds a union may take to refine (a level is not started beyond it)
+_TIME_BUDGET = 2.0              # seconds of processor time a union may take to refine (a level is not started
+                                # beyond it); processor time, not wall time, so that a busy machine gives the same bound
 _MOST_SEGMENTS = 1024          # points around at most: a face a ring cuts has as many edges, triangulated
 
 
@@ -561,10 +562,10 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
         finest *= 2
     largest = max(max(float(b - a) for a, b in zip(*c.box)) for c in curved)
-    started = time.perf_counter()
+    started = time.process_time()
     stopped = "triangles"
     while True:
-        level_started = time.perf_counter()
+        level_started = time.process_time()
         # Faces of the meshes and boxes cut to a few of the polyhedra's edges across (see _subdivided).
         surfaces = [_subdivided(s.placed, 8 * math.pi * largest / segments) for s in solids]
         inner = [_polyhedron(c, segments, False) for c in curved]
@@ -614,8 +615,8 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
             break
         # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget of triangles
         # and of time (a level's time taken to grow at most as n², as it does where coplanar faces are cut).
-        spent = time.perf_counter() - started
-        last = time.perf_counter() - level_started
+        spent = time.process_time() - started
+        last = time.process_time() - level_started
         affordable = min(finest, segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3)))
         wanted = segments * math.sqrt(relative / tolerance) * 1.2
         step = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)), 4 * math.floor(affordable / 4))
@@ -633,7 +634,7 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     text += f" (checks.overlap), mass and inertia known to {relative:.1e}"
     if relative > tolerance:
         text += (f", not the {tolerance:g} asked ({option('tolerance')}): the refinement stopped at its budget "
-                 + (f"of {_TIME_BUDGET:g} s" if stopped == "time" else "of triangles")
+                 + (f"of {_TIME_BUDGET:g} s of processor time" if stopped == "time" else "of triangles")
                  + f", {faces} on the curved ones")
     return [props], {"overlap": max(twice, 0.0), "relative": relative, "segments": segments, "bound": how}, [text]
 
