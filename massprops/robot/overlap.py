@@ -562,7 +562,7 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
     while 2 * finest <= _MOST_SEGMENTS and sum(faces_for(c.kind, 2 * finest) for c in curved) <= _FACE_BUDGET:
         finest *= 2
     largest = max(max(float(b - a) for a, b in zip(*c.box)) for c in curved)
-    started = time.process_time()
+    started = None
     stopped = "triangles"
     while True:
         level_started = time.process_time()
@@ -615,8 +615,10 @@ def _tessellated(link_name, solids, curved, repair, tolerance):
             break
         # The bound shrinks as 1/n²: jump to where it should meet the tolerance, within the budget of triangles
         # and of time (a level's time taken to grow at most as n², as it does where coplanar faces are cut).
-        spent = time.process_time() - started
-        last = time.process_time() - level_started
+        now = time.process_time()
+        if started is None:
+            started = now       # the first level, always run, is not charged: it pays for modules' first use
+        spent, last = now - started, now - level_started
         affordable = min(finest, segments * math.sqrt(max(0.0, _TIME_BUDGET - spent) / max(last, 1e-3)))
         wanted = segments * math.sqrt(relative / tolerance) * 1.2
         step = min(finest, max(2 * segments, 4 * math.ceil(wanted / 4)), 4 * math.floor(affordable / 4))
