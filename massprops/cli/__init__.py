@@ -112,6 +112,9 @@ def main():
     # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
     if not os.environ.get("MASSPROPS_DEBUG"):
         warnings.filterwarnings("ignore", category=RuntimeWarning)
+    # The pipeline every command runs (and numpy), loaded with the collector paused (massprops/__init__.py),
+    # now: after the script chose the BLAS threads, before the command's options are parsed.
+    from .. import mass_properties  # noqa: F401
     # What is loaded now (modules, classes, click's commands) lives until the process ends: the
     # cyclic garbage collector need not look at it again, during the command or at exit.
     gc.freeze()
