@@ -30,13 +30,19 @@ __version__ = "0.1.0"
 
 
 def __getattr__(name):
-    """Load the public names on first use (PEP 562), all at once."""
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    loaded = load_quietly(lambda: {key: getattr(_importlib.import_module(module, __name__), key)
-                                   for key, module in _EXPORTS.items()})
-    globals().update(loaded)
-    return loaded[name]
+    """Load the public names on first use (PEP 562), all at once; or a subpackage named (``massprops.io``)."""
+    if name in _EXPORTS:
+        loaded = load_quietly(lambda: {key: getattr(_importlib.import_module(module, __name__), key)
+                                       for key, module in _EXPORTS.items()})
+        globals().update(loaded)
+        return loaded[name]
+    if not name.startswith("_"):
+        try:
+            return load_quietly(lambda: _importlib.import_module(f".{name}", __name__))
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__():

@@ -202,3 +202,24 @@ def test_the_command_line_starts_numpy_with_one_blas_thread_unless_told(tmp_path
     assert probe["exit"] in (0, None)
     assert json.loads(report)[0]["volume"] == 6.0
     assert probe["at_numpy"] == {**dict.fromkeys(BLAS, "1"), "OPENBLAS_NUM_THREADS": chosen or "1"}
+
+
+LAZY = """
+import json, sys
+import massprops
+light = "numpy" not in sys.modules
+names = [massprops.Pose.__name__, massprops.mass_properties.__name__, massprops.io.read.__name__,
+         massprops.core.integrate.__name__]
+try:
+    massprops.no_such_name
+    missing = "found"
+except AttributeError:
+    missing = "AttributeError"
+print(json.dumps({"light": light, "names": names, "missing": missing}))
+"""
+
+
+def test_import_massprops_loads_its_names_and_subpackages_on_first_use():
+    done = subprocess.run([sys.executable, "-c", LAZY], capture_output=True, text=True, check=True)
+    assert json.loads(done.stdout) == {"light": True, "names": ["Pose", "mass_properties", "read", "integrate"],
+                                       "missing": "AttributeError"}
