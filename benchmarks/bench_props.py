@@ -19,7 +19,9 @@ Measured, each the best of a few runs (the machine is shared):
   next to the memory-read floor (one pass summing the float64 triangles)
   and meshlib's volume-only time on the same mesh;
 - threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
-- startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"``.
+- read and weld: ``massprops.core.read_stl`` on the binary STLs, 1 and 2 threads, in process;
+- startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"`` (and the same
+  with one BLAS thread, which the ``massprops`` script asks for before numpy loads).
 
 Speed is measured here, never asserted in tests.
 """
@@ -39,6 +41,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "_data", "props")
 OFFSET = (100.0, -50.0, 25.0)
 MIB = 1024.0 * 1024.0
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "BLIS_NUM_THREADS")
 
 
 def _path(name):
@@ -177,7 +180,8 @@ def end_to_end(quick):
     path = icosphere_stl()
     repeat = 2 if quick else 3
     command = massprops_cmd(path, "--format", "json")
-    commands = {"massprops": (command, None, 2), "massprops, 1 thread": (command, {"MASSPROPS_THREADS": "1"}, 1)}
+    commands = {"massprops": (command, None, 2), "massprops, 1 thread": (command, {"MASSPROPS_THREADS": "1"}, 1),
+                "import numpy": ([sys.executable, "-c", "import numpy"], None, 2)}
     skipped = {}
     for name in peers.PEERS:
         if not peers.installed(name):
@@ -193,6 +197,7 @@ def end_to_end(quick):
             if turn < runs[name]:
                 found.setdefault(name, []).extend(measure(argv, env) for _ in range(per_turn))
     found = {name: min(values) for name, values in found.items()}
+    numpy_only = found.pop("import numpy")[0]
     ours = found["massprops"][0]
     size = os.path.getsize(path) / MIB
     rows = [f"1,310,720 triangles (icosphere(8) at {OFFSET}), binary STL of {size:.0f} MiB; best of "
@@ -203,6 +208,8 @@ def end_to_end(quick):
         rows.append(f"| {name} | {what} | {_seconds(wall)} | {peak:.0f} | "
                     f"{'' if name.startswith('massprops') else f'{wall / ours:.1f}×'} |")
     rows += [f"| {name} | {peers.PEERS[name][2]} | {why} | | |" for name, why in skipped.items()]
+    rows += ["", f"`python -c \"import numpy\"` in the same turns: {_seconds(numpy_only)} s; massprops' own share "
+             f"(end to end minus it): {_seconds(ours - numpy_only)} s."]
     return "\n".join(rows)
 
 
@@ -250,6 +257,28 @@ def kernel(quick):
     return "\n".join(rows)
 
 
+def read_weld(quick):
+    """ns/triangle of reading and welding binary STLs in process (``massprops.core.read_stl``), 1 and 2 threads.
+
+    Beside the floor of reading the same file into an array (``numpy.fromfile`` of its records).
+    """
+    from massprops.core import read_stl
+    repeat = 3 if quick else 5
+    rows = ["| binary STL | triangles | file read floor ns/triangle | 1 thread ns/triangle | 2 threads ns/triangle |",
+            "|---|---:|---:|---:|---:|"]
+    from massprops.io.stl import _RECORD
+    for name, path in (("icosphere(8)", icosphere_stl()), ("torus", torus_stl(1_000_000)[0])):
+        m = (os.path.getsize(path) - 84) // 50
+        floor = _time(lambda: np.fromfile(path, dtype=_RECORD, offset=84), repeat)
+        ours = {}
+        for threads in ("1", "2", "1", "2"):       # taking turns: the machine's speed drifts
+            os.environ["MASSPROPS_THREADS"] = threads
+            ours[threads] = min(ours.get(threads, float("inf")), _time(lambda: read_stl(path), repeat))
+        os.environ.pop("MASSPROPS_THREADS")
+        rows.append(f"| {name} | {m:,} | {floor / m * 1e9:.1f} | {ours['1'] / m * 1e9:.1f} | {ours['2'] / m * 1e9:.1f} |")
+    return "\n".join(rows)
+
+
 STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import massprops.cli as c; "
                  "r = CliRunner().invoke(c.main, ['props', sys.argv[1]]); "
                  "print(sorted(m for m in ('trimesh', 'scipy', 'meshio', 'matplotlib', 'dask') if m in sys.modules))")
@@ -258,17 +287,23 @@ STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import masspr
 def startup(quick):
     path = box_stl()
     repeat = 10 if quick else 25
+    one_blas = {name: "1" for name in BLAS_THREADS}
     found = interleaved({"ours": (massprops_cmd(path), None, 1),
                          "numpy": ([sys.executable, "-c", "import numpy"], None, 1),
+                         "numpy, 1 BLAS thread": ([sys.executable, "-c", "import numpy"], one_blas, 1),
                          "bare": ([sys.executable, "-c", "pass"], None, 1)}, repeat)
     ours, numpy_only, bare = found["ours"][0], found["numpy"][0], found["bare"][0]
+    numpy_one = found["numpy, 1 BLAS thread"][0]
     heavy = subprocess.run([sys.executable, "-c", STARTUP_PROBE, path], capture_output=True,
                            text=True).stdout.strip()
     return "\n".join([
         "| startup, 12-triangle box | wall s | vs `import numpy` |", "|---|---:|---:|",
         f"| `python -c pass` | {bare:.3f} | |",
         f"| `python -c \"import numpy\"` | {numpy_only:.3f} | 1.00× |",
-        f"| `massprops props box.stl` | {ours:.3f} | {ours / numpy_only:.2f}× |",
+        f"| the same, `OPENBLAS_NUM_THREADS=1` (and MKL, BLIS, Accelerate) | {numpy_one:.3f} "
+        f"| {numpy_one / numpy_only:.2f}× |",
+        f"| `massprops props box.stl` (asks for one BLAS thread itself) | {ours:.3f} | {ours / numpy_only:.2f}× "
+        f"({ours / numpy_one:.2f}× the one-thread import) |",
         "", f"Heavy modules imported by `massprops props` on a binary STL: {heavy or '[]'}."])
 
 
@@ -390,7 +425,8 @@ def run(quick: bool = False) -> str:
     """All props tables as Markdown."""
     byte_compile()
     parts = [machine(), "", "**End to end** (best of runs; fresh processes):", "", end_to_end(quick), "",
-             "**Kernel**:", "", kernel(quick), "", "**Startup**:", "", startup(quick), "",
+             "**Kernel**:", "", kernel(quick), "", "**Read and weld** (in process, best of calls):", "",
+             read_weld(quick), "", "**Startup**:", "", startup(quick), "",
              "**Scaling** (tori off the origin, binary STL; in process = `mass_properties(path)` without "
              "interpreter start-up):", "", scaling(quick)]
     return "\n".join(parts)

@@ -5,6 +5,7 @@ packages (checked in a fresh interpreter, through click's CliRunner).
 """
 
 import json
+import os
 import subprocess
 import sys
 
@@ -127,3 +128,98 @@ def test_importing_massprops_leaves_the_garbage_collector_as_it_was():
     """Start-up pauses the cyclic collector while modules load (issue 24), and restores what it found."""
     done = subprocess.run([sys.executable, "-c", COLLECTOR], capture_output=True, text=True, check=True)
     assert json.loads(done.stdout) == [False, True]
+
+
+# numpy's BLAS threads (issue 24): the `massprops` script asks for one before numpy is imported, unless the
+# user chose a count; importing massprops or its CLI as a library changes no environment variable.
+BLAS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "BLIS_NUM_THREADS")
+
+BLAS_PROBE = """
+import json, os, sys
+seen = {}
+def audit(event, args):
+    if event == "import" and args[0] == "numpy" and "numpy" not in seen:
+        seen["numpy"] = {name: os.environ.get(name) for name in %r}
+sys.addaudithook(audit)
+before = dict(os.environ)
+import massprops, massprops.cli
+from massprops import mass_properties
+mass_properties(sys.argv[1])
+imported = dict(os.environ)
+sys.argv = ["massprops", "props", sys.argv[1]]
+try:
+    massprops.cli.main()                  # as the installed script calls it
+except SystemExit as exit:
+    code = exit.code
+print(json.dumps({"imported_unchanged": imported == before, "at_numpy": seen["numpy"], "exit": code}))
+""" % (BLAS,)
+
+
+def _blas_probe(path, **env):
+    clean = {k: v for k, v in os.environ.items() if k not in BLAS}
+    done = subprocess.run([sys.executable, "-c", BLAS_PROBE, str(path)], capture_output=True, text=True,
+                          check=True, env={**clean, **env})
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_importing_massprops_changes_no_environment_variable(tmp_path):
+    path = tmp_path / "box.stl"
+    write_binary(path, solids.box((1.0, 2.0, 3.0), (0.5, 0.5, 0.5)).triangles)
+    probe = _blas_probe(path)
+    assert probe["imported_unchanged"]
+    assert probe["at_numpy"] == dict.fromkeys(BLAS)        # the library loaded numpy with the user's (no) settings
+    assert probe["exit"] == 0
+
+
+CLI_BLAS_PROBE = """
+import json, os, sys
+seen = {}
+def audit(event, args):
+    if event == "import" and args[0] == "numpy" and "numpy" not in seen:
+        seen["numpy"] = {name: os.environ.get(name) for name in %r}
+sys.addaudithook(audit)
+from massprops.cli import main
+sys.argv = ["massprops", "props", "--format", "json", sys.argv[1]]
+try:
+    main()
+except SystemExit as exit:
+    code = exit.code
+print(json.dumps({"at_numpy": seen["numpy"], "exit": code}))
+""" % (BLAS,)
+
+
+@pytest.mark.parametrize("chosen", [None, "2"])
+def test_the_command_line_starts_numpy_with_one_blas_thread_unless_told(tmp_path, chosen):
+    path = tmp_path / "box.stl"
+    write_binary(path, solids.box((1.0, 2.0, 3.0), (0.5, 0.5, 0.5)).triangles)
+    clean = {k: v for k, v in os.environ.items() if k not in BLAS}
+    if chosen:
+        clean["OPENBLAS_NUM_THREADS"] = chosen
+    done = subprocess.run([sys.executable, "-c", CLI_BLAS_PROBE, str(path)], capture_output=True, text=True,
+                          check=True, env=clean)
+    report, probe = done.stdout.rstrip("\n").rsplit("\n", 1)
+    probe = json.loads(probe)
+    assert probe["exit"] in (0, None)
+    assert json.loads(report)[0]["volume"] == 6.0
+    assert probe["at_numpy"] == {**dict.fromkeys(BLAS, "1"), "OPENBLAS_NUM_THREADS": chosen or "1"}
+
+
+LAZY = """
+import json, sys
+import massprops
+light = "numpy" not in sys.modules
+names = [massprops.Pose.__name__, massprops.mass_properties.__name__, massprops.io.read.__name__,
+         massprops.core.integrate.__name__]
+try:
+    massprops.no_such_name
+    missing = "found"
+except AttributeError:
+    missing = "AttributeError"
+print(json.dumps({"light": light, "names": names, "missing": missing}))
+"""
+
+
+def test_import_massprops_loads_its_names_and_subpackages_on_first_use():
+    done = subprocess.run([sys.executable, "-c", LAZY], capture_output=True, text=True, check=True)
+    assert json.loads(done.stdout) == {"light": True, "names": ["Pose", "mass_properties", "read", "integrate"],
+                                       "missing": "AttributeError"}

@@ -15,14 +15,9 @@ import os
 import sys
 import warnings
 
-_collecting = gc.isenabled()
-gc.disable()                            # while click loads: see massprops/__init__.py
-try:
-    import click
-finally:
-    if _collecting:
-        gc.enable()
-    del _collecting
+from .. import load_quietly
+
+click = load_quietly(lambda: importlib.import_module("click"))    # the collector paused: see massprops/__init__.py
 
 # name -> (module, function); each module is massprops/cli/<module>.py
 COMMANDS = {
@@ -41,12 +36,28 @@ COMMANDS = {
 HIDDEN = frozenset({"check"})
 
 
+# numpy's BLAS (OpenBLAS, MKL, Accelerate, BLIS) starts a thread per core when numpy is imported, and
+# OpenBLAS's spin while idle: on two cores that is one core busy during start-up and the compiled core's
+# second thread slowed (issue 24).  The command line does no large matrix products (3×3 ones, and
+# vertices times a 3×3 rotation, which one thread streams as fast), so its process asks for one BLAS
+# thread before numpy loads, unless the user set a count.  Only the command line does this: importing
+# massprops (or massprops.cli) leaves the environment alone.
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "BLIS_NUM_THREADS")
+
+
 class LazyGroup(click.Group):
     """A click group that imports a subcommand's module on first use.
 
     It is also the last edge: output that cannot be written (a full disk, a
     closed pipe) ends the command with one line and exit 1, not a traceback.
     """
+
+    def __call__(self, *args, **kwargs):
+        """The ``massprops`` script (and ``python -m massprops``): one BLAS thread, then the command."""
+        if "numpy" not in sys.modules:
+            for name in BLAS_THREADS:
+                os.environ.setdefault(name, "1")
+        return super().__call__(*args, **kwargs)
 
     def invoke(self, ctx):
         try:
@@ -70,7 +81,7 @@ class LazyGroup(click.Group):
             return None
         module, attribute = COMMANDS[name]
         try:
-            return getattr(importlib.import_module(f"{__name__}.{module}"), attribute)
+            return getattr(load_quietly(lambda: importlib.import_module(f"{__name__}.{module}")), attribute)
         except ModuleNotFoundError as exc:
             if exc.name == f"{__name__}.{module}":
                 return None
@@ -101,6 +112,9 @@ def main():
     # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
     if not os.environ.get("MASSPROPS_DEBUG"):
         warnings.filterwarnings("ignore", category=RuntimeWarning)
+    # The pipeline every command runs (and numpy), loaded with the collector paused (massprops/__init__.py),
+    # now: after the script chose the BLAS threads, before the command's options are parsed.
+    from .. import mass_properties  # noqa: F401
     # What is loaded now (modules, classes, click's commands) lives until the process ends: the
     # cyclic garbage collector need not look at it again, during the command or at exit.
     gc.freeze()

@@ -137,7 +137,7 @@ def check_shells(mesh, path=None):
     -------
     checks : MeshChecks
     labels : ndarray, shape (m,), int64
-        The shell (connected component of faces sharing vertices) of each face.
+        The shell (connected component of faces sharing vertices) of each face (read-only).
     two_faces_an_edge : bool
         Every edge is used by exactly two faces.  Then no face can repeat
         another in the same orientation (its edges would be used four times),
@@ -165,6 +165,10 @@ def check_shells(mesh, path=None):
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
     labels, n_shells = shells(faces, vertices.shape[0])
+    if n_shells == 1:
+        # Every label is 0: one zero seen m times (read-only, no memory), not 8 bytes a face held while the
+        # self-intersection search runs, the peak of a large mesh (issue 24).
+        labels = np.broadcast_to(np.int64(0), (faces.shape[0],))
     # Balanced, so every edge is used an even number of times: exactly twice when none is used more.
     two_faces_an_edge = edges.max_uses <= 2 and edges.collapsed == 0
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,

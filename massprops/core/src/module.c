@@ -566,6 +566,7 @@ static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
     n = view.len / 24;
     out = malloc((size_t)(n > 0 ? n : 1) * 3 * sizeof(double));
     rows = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
+    advise_huge(out, (size_t)n * 3 * sizeof(double));
     if (!out || !rows) {
         free(out);
         free(rows);

@@ -325,6 +325,8 @@ int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threa
     w.blocks = malloc((size_t)(blocks > 0 ? blocks : 1) * sizeof *w.blocks);
     w.collapsed = calloc((size_t)w.parts, sizeof(int64_t));
     w.degenerate = calloc((size_t)w.parts, sizeof(int64_t));
+    advise_huge(w.offsets, ((size_t)n + 1) * sizeof *w.offsets);
+    advise_huge(w.entries, (size_t)(3 * m) * sizeof *w.entries);
     if (!w.offsets || !w.entries || !w.blocks || !w.collapsed || !w.degenerate) {
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         goto done;

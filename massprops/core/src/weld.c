@@ -284,6 +284,10 @@ static int weld_stream(PointSource source, void *context, int64_t count, int64_t
     for (t = 0; t < work.ranges; t++)
         if (work.failed[t] && failure->kind == ERR_NONE)
             *failure = work.failures[t];
+    for (t = 1; t < work.ranges; t++) {          /* only the later ranges' vertices are merged: their tables go first */
+        free(work.welders[t].slots);
+        work.welders[t].slots = NULL;
+    }
     for (t = 1; t < work.ranges && failure->kind == ERR_NONE; t++) {
         Welder *w = &work.welders[t];
         index_t *number = malloc((size_t)(w->count > 0 ? w->count : 1) * sizeof *number);
@@ -298,8 +302,7 @@ static int weld_stream(PointSource source, void *context, int64_t count, int64_t
         welder_free(w);
     }
     for (t = 1; t < work.ranges; t++)
-        if (work.welders[t].slots)
-            welder_free(&work.welders[t]);
+        welder_free(&work.welders[t]);
     if (failure->kind != ERR_NONE) {
         if (work.welders[0].slots)
             welder_free(&work.welders[0]);
