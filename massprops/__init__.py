@@ -32,13 +32,13 @@ __version__ = "0.1.0"
 def __getattr__(name):
     """Load the public names on first use (PEP 562), all at once; or a subpackage named (``massprops.io``)."""
     if name in _EXPORTS:
-        loaded = load_quietly(lambda: {key: getattr(_importlib.import_module(module, __name__), key)
+        loaded = _load_quietly(lambda: {key: getattr(_importlib.import_module(module, __name__), key)
                                        for key, module in _EXPORTS.items()})
         globals().update(loaded)
         return loaded[name]
     if not name.startswith("_"):
         try:
-            return load_quietly(lambda: _importlib.import_module(f".{name}", __name__))
+            return _load_quietly(lambda: _importlib.import_module(f".{name}", __name__))
         except ModuleNotFoundError as exc:
             if exc.name != f"{__name__}.{name}":
                 raise
@@ -49,7 +49,7 @@ def __dir__():
     return sorted(set(globals()) | set(_EXPORTS))
 
 
-def load_quietly(load):
+def _load_quietly(load):
     """``load()`` with the cyclic garbage collector paused, and left as it was found.
 
     Importing makes tens of thousands of long-lived objects (numpy's and

@@ -15,9 +15,9 @@ import os
 import sys
 import warnings
 
-from .. import load_quietly
+from .. import _load_quietly
 
-click = load_quietly(lambda: importlib.import_module("click"))    # the collector paused: see massprops/__init__.py
+click = _load_quietly(lambda: importlib.import_module("click"))    # the collector paused: see massprops/__init__.py
 
 # name -> (module, function); each module is massprops/cli/<module>.py
 COMMANDS = {
@@ -81,7 +81,7 @@ class LazyGroup(click.Group):
             return None
         module, attribute = COMMANDS[name]
         try:
-            return getattr(load_quietly(lambda: importlib.import_module(f"{__name__}.{module}")), attribute)
+            return getattr(_load_quietly(lambda: importlib.import_module(f"{__name__}.{module}")), attribute)
         except ModuleNotFoundError as exc:
             if exc.name == f"{__name__}.{module}":
                 return None
