@@ -127,19 +127,25 @@ class _Soup:
     """The faces as integers on one power-of-two grid, with the exact tests the arrangement needs."""
 
     def __init__(self, geometry, faces, weights):
-        scaled = geometry.vertices
         self.faces = faces
         self.weights = weights
-        mantissa, exponent = np.frexp(scaled)
-        whole = (mantissa * 2.0 ** 53).astype(np.int64)
-        nonzero = whole != 0
-        self.exponent = int((exponent[nonzero] - 53).min()) if nonzero.any() else 0
-        self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self.exponent, 0)
+        self._exponent = None                   # the integer grid is made when the exact path first asks
         self._points = {}
         self._planes = {}
-        self.scaled = scaled
+        self.scaled = geometry.vertices
         self._columns = {}
         self._boxes = None
+
+    @property
+    def exponent(self):
+        """The grid's unit is ``2**exponent``: every coordinate is an integer multiple of it."""
+        if self._exponent is None:
+            mantissa, exponent = np.frexp(self.scaled)
+            whole = (mantissa * 2.0 ** 53).astype(np.int64)
+            nonzero = whole != 0
+            self._exponent = int((exponent[nonzero] - 53).min()) if nonzero.any() else 0
+            self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self._exponent, 0)
+        return self._exponent
 
     def _floats(self):
         """The faces' corners and boxes in floating point, for :meth:`_near` (made when first asked)."""
@@ -158,6 +164,7 @@ class _Soup:
         """Vertex ``v`` as integers (3)."""
         found = self._points.get(v)
         if found is None:
+            self.exponent                       # noqa: B018 - makes the grid
             found = tuple(int(m) << int(s) for m, s in zip(self._whole[v].tolist(), self._shift[v].tolist()))
             self._points[v] = found
         return found
@@ -532,6 +539,8 @@ class _Corners:
         stays exact.  The error ``|x/w - r|`` is found exactly in integers and
         rounded up.
         """
+        if not self.new:
+            return np.zeros((0, 3)), np.zeros((0, 3))
         unit = math.ldexp(1.0, self.soup.exponent)
         values, errors = [], []
         for q in self.new:
@@ -753,6 +762,20 @@ def _patches(faces, cut):
     return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
 
 
+def _distinct_rows(table):
+    """The distinct rows of a float table in lexicographic order, and each row's place among them (as
+    ``np.unique(table, axis=0, return_inverse=True)``, which sorts a structured copy: several times slower)."""
+    if table.shape[0] == 0:
+        return table, np.zeros(0, dtype=np.int64)
+    order = np.lexsort(table.T[::-1])
+    ordered = table[order]
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    index = np.empty(order.size, dtype=np.int64)
+    index[order] = np.cumsum(first) - 1
+    return ordered[first], index
+
+
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
     """The faces and cut pieces that bound ``{w > 0}`` (see the module docstring).
 
@@ -810,10 +833,9 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     pieces = []
     if compiled is not None:
         cut |= compiled.status == 1
-        drops = compiled.drop.tolist()
         # (normal None: the exact normal is made only if the exact path asks for it)
-        pieces = [(t, c, None, partners.get(t, ()), (drops[t] + 1) % 3, (drops[t] + 2) % 3)
-                  for c, t in enumerate(compiled.face.tolist())]
+        pieces = [(t, c, None, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
+                  for c, (t, drop) in enumerate(zip(compiled.face.tolist(), compiled.drop[compiled.face].tolist()))]
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -822,9 +844,10 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     uncut = np.flatnonzero(~cut)
     if uncut.size:
         patch = _patches(faces, cut)
-        patches, first = np.unique(patch[uncut], return_index=True)
-        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first
-        pieces.extend((t, None, None, (), 0, 1) for t in uncut[first].tolist())
+        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
+        # labelled by its lowest face (uncut; a cut face is labelled by itself)
+        roots = uncut[patch[uncut] == uncut]
+        pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
     labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
     negative = bool(np.any(front < 0) or np.any(behind < 0))
@@ -844,13 +867,13 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3), compiled.fans(fans)]
     else:
         triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
-    kept = []
+    out = np.zeros((0, 3), dtype=np.int64)
     if uncut.size:
-        side = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
-        signs = side[np.searchsorted(patches, patch[uncut])]
-        kept_faces = faces[uncut]
-        kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
-    out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
+        # each face takes its patch's side: +1 kept as it is, -1 turned, 0 (and every cut face) left out
+        side = np.zeros(m, dtype=np.int8)
+        side[roots] = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
+        signs = side[patch]
+        out = np.concatenate([faces[signs > 0], faces[signs < 0][:, ::-1]]).astype(np.int64, copy=False)
     pieces = np.vstack(triangles)
     points, rounding = kept_corners.points()
     n = soup.scaled.shape[0]
@@ -864,8 +887,8 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         rounding = np.vstack([compiled.rounding, rounding])
         points[mine], rounding[mine] = exact_points, exact_rounding
     # only the new corners the kept pieces use; one for points that round alike with the same bound
-    rows, index = np.unique(np.hstack([points[used], rounding[used]]), axis=0, return_inverse=True)
+    rows, index = _distinct_rows(np.hstack([points[used], rounding[used]]))
     renumber = np.full(points.shape[0], -1, dtype=np.int64)
-    renumber[used] = index.reshape(-1) + n
+    renumber[used] = index + n
     pieces[new] = renumber[pieces[new] - n]
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

@@ -153,18 +153,27 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     vertices, faces = mesh.vertices, mesh.faces
     m = faces.shape[0]
     weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
-    six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
-                                   n_shells)
+    repeats = bool(np.any(weights != 1))
+    if repeats:
+        six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
+                                       n_shells)
+    else:
+        six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
     area = ~geometry.zero_area(faces)
-    index = np.cumsum(area) - 1
-    arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+    if area.all():
+        # (no face of zero area: the faces as they are, not copies renumbered)
+        arrange_faces, arrange_weights, arrange_pairs = faces, weights, pairs
+    else:
+        index = np.cumsum(area) - 1
+        arrange_faces, arrange_weights, arrange_pairs = faces[area], weights[area], index[pairs]
+    arranged = arrange(geometry, arrange_faces, arrange_weights, arrange_pairs)
     flipped = False
     if _empty(arranged):
         # Positive nowhere: a surface wound inward as a whole (the file's convention), turned as a whole.
         flipped = True
         faces = faces[:, ::-1].copy()
         six = -six
-        arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+        arranged = arrange(geometry, faces[area], arrange_weights, arrange_pairs)
         if _empty(arranged):
             raise MeshGeometryError("the solid has zero volume: the faces enclose nothing (every region they wind "
                                     "around cancels)", path=path,
@@ -181,7 +190,7 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
             resolved.append(f"{inward} cavit{'ies' if inward > 1 else 'y'} (a shell wound inward) "
                             f"cross{'' if inward > 1 else 'es'} a body's surface")
         resolved.append(f"{met.size} shells meet")
-    if np.any(weights != 1):
+    if repeats:
         resolved.append("faces repeat")
     warnings = []
     flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound), ~area)
