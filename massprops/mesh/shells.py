@@ -86,7 +86,7 @@ def _nested(mesh, labels, n_shells, geometry, path, repair):
     """Shells that do not meet: each bounds ``{w > 0}``, or lies inside others wound alike and adds nothing."""
     vertices, faces = mesh.vertices, mesh.faces
     checks = {"self_intersection": "none"}
-    six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
+    six, bound = shell_six_volumes(vertices, faces, labels, n_shells, geometry.frame)
     zero = _zero_shells(vertices, faces, labels, six, bound)
     live = ~zero
     warnings = []
@@ -156,9 +156,9 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     repeats = bool(np.any(weights != 1))
     if repeats:
         six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
-                                       n_shells)
+                                       n_shells, geometry.frame)
     else:
-        six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
+        six, bound = shell_six_volumes(vertices, faces, labels, n_shells, geometry.frame)
     area = ~geometry.zero_area(faces)
     if area.all():
         # (no face of zero area: the faces as they are, not copies renumbered)

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..model.records import record
 from ..model.errors import MeshGeometryError
-from ..core import edge_summary, face_groups, reference_frame, shell_determinants
+from ..core import _core, edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 
 __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
@@ -203,19 +203,20 @@ def _one_side(mesh, faces, path):
         f"each of the {faces.shape[0]} faces encloses"], None
 
 
-def shell_six_volumes(vertices, faces, labels, n_shells):
+def shell_six_volumes(vertices, faces, labels, n_shells, frame=None):
     """Six times each shell's signed volume and a bound on its error (rigorous).
 
     The compiled core's determinants (:func:`massprops.core.shell_determinants`:
     exact shift and scale, Shewchuk's bound per face, compensated sums per
-    shell), brought back to mesh units by the frame's power of two.
+    shell), brought back to mesh units by the frame's power of two.  ``frame``
+    is ``frame_of(vertices)`` when the caller already has it.
 
     Returns
     -------
     six_volume, bound : ndarray, shape (n_shells,), mesh units³
     """
-    _, scale_exp = reference_frame(vertices)
-    sums, bounds = shell_determinants(vertices, faces, labels, n_shells)
+    scale_exp = reference_frame(vertices)[1] if frame is None else frame.scale_exp
+    sums, bounds = shell_determinants(vertices, faces, labels, n_shells, frame=frame)
     factor = math.ldexp(1.0, 3 * scale_exp)
     return sums * factor, bounds * factor
 
@@ -308,7 +309,8 @@ def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
     det_error, first_error, second_error = moments.det_error, moments.first_error, moments.second_error
     if swept:
         scale = math.ldexp(1.0, -moments.scale_exp)
-        low, high = vertices.min(axis=0), vertices.max(axis=0)
+        # (the box in one compiled pass: numpy's min and max along the rows of (n, 3) are ~10x slower)
+        low, high = (np.array(x) for x in _core.bounding_box(np.ascontiguousarray(vertices, dtype=np.float64)))
         radius = float(np.linalg.norm(np.maximum(np.abs(low - moments.reference), np.abs(high - moments.reference))))
         r = (radius + reach) * scale * (1 + 1e-9)
         s = swept * scale ** 3 * (1 + 1e-9)
