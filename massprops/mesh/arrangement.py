@@ -650,16 +650,17 @@ class _Compiled:
     def label(self, soup, pieces, first_patch, labels):
         """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
         weight of the faces in their plane that hold their inner point) and patches."""
-        chosen, faces, points, partners = [], [], [], []
-        nan = (math.nan, math.nan)
-        inside = self.inside
-        for k, (t, cell, _, its_partners, _, _) in enumerate(pieces):
-            if k >= first_patch:
-                chosen.append(k), faces.append(t), points.append(nan), partners.append(())
-            elif not isinstance(cell, list):
-                chosen.append(k), faces.append(t), points.append(inside[cell, 0]), partners.append(its_partners)
+        chosen, faces, cells, partners = [], [], [], []
+        for k in range(first_patch):
+            t, cell, _, its_partners, _, _ = pieces[k]
+            if not isinstance(cell, list):
+                chosen.append(k), faces.append(t), cells.append(cell), partners.append(its_partners)
+        for k in range(first_patch, len(pieces)):
+            chosen.append(k), faces.append(pieces[k][0]), partners.append(())
         if not chosen:
             return
+        points = np.full((len(chosen), 2), math.nan)             # NaN: a patch's face, asked at its centroid
+        points[:len(cells)] = self.inside[cells, 0]
         from ..core.intersect import _extension, _PARALLEL_ABOVE
         from ..core.threads import threads_for
         starts = np.zeros(len(chosen) + 1, dtype=np.int64)
@@ -667,8 +668,7 @@ class _Compiled:
         flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
         front, net, owned, status = _extension().labels(
             soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
-            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64),
-            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)), starts, flat,
+            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64), points, starts, flat,
             threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
         answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
         fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()

@@ -257,15 +257,26 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
         return 0.0
     delta = np.zeros(points.shape[0])
     delta[moved_vertices] = moved
-    touched = np.flatnonzero(delta[faces].max(axis=1) > 0)
-    a, b, c = (points[faces[touched, k]] for k in range(3))
-    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    perimeter = np.linalg.norm(b - a, axis=1) + np.linalg.norm(c - b, axis=1) + np.linalg.norm(a - c, axis=1)
+    around = delta[faces]
+    touched = np.flatnonzero(around.max(axis=1) > 0)
+    faces, around = faces[touched], around[touched]
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    k = touched.size
+    # the edges' lengths in one call (row by row as three); the cross product as np.cross computes it
+    sides = np.empty((4 * k, 3))
+    np.subtract(b, a, out=sides[:k]), np.subtract(c, b, out=sides[k:2 * k]), np.subtract(a, c, out=sides[2 * k:3 * k])
+    u, v, n = sides[:k], c - a, sides[3 * k:]
+    np.subtract(u[:, 1] * v[:, 2], u[:, 2] * v[:, 1], out=n[:, 0])
+    np.subtract(u[:, 2] * v[:, 0], u[:, 0] * v[:, 2], out=n[:, 1])
+    np.subtract(u[:, 0] * v[:, 1], u[:, 1] * v[:, 0], out=n[:, 2])
+    lengths = np.linalg.norm(sides, axis=1)
+    area = 0.5 * lengths[3 * k:]
+    perimeter = lengths[:k] + lengths[k:2 * k] + lengths[2 * k:3 * k]
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    total = float(np.sum(delta[faces[touched]].sum(axis=1) * enlarged)) / 3.0
+    total = float(np.sum(around.sum(axis=1) * enlarged)) / 3.0
     if apex is not None:
-        total += _unmatched_walls(points, faces[touched], delta, largest, apex)
+        total += _unmatched_walls(points, faces, delta, largest, apex)
     return total * (1 + 1e-9)
 
 
@@ -285,8 +296,11 @@ def _unmatched_walls(points, faces, delta, largest, apex):
     surplus = counts - np.where(keys[at] == reverse, counts[at], 0)
     keep = surplus > 0
     i, j, surplus = keys[keep] // n, keys[keep] % n, surplus[keep]
-    wall = (np.linalg.norm(points[j] - points[i], axis=1) + largest) * (delta[i] + delta[j])
-    reach = np.maximum(np.linalg.norm(points[i] - apex, axis=1), np.linalg.norm(points[j] - apex, axis=1)) + largest
+    k = i.size
+    pi, pj = points[i], points[j]
+    lengths = np.linalg.norm(np.concatenate([pj - pi, pi - apex, pj - apex]), axis=1)   # row by row, as three calls
+    wall = (lengths[:k] + largest) * (delta[i] + delta[j])
+    reach = np.maximum(lengths[k:2 * k], lengths[2 * k:]) + largest
     return float(np.sum(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
 
 
