@@ -34,9 +34,15 @@ __all__ = ["ExactGeometry", "Intersections"]
 _SMALLEST = 2.0 ** -200
 
 
+_LOADED = []
+
+
 def _extension():
-    from . import _intersect
-    return _intersect
+    """The compiled module, imported when first asked for (an import statement costs microseconds a call)."""
+    if not _LOADED:
+        from . import _intersect
+        _LOADED.append(_intersect)
+    return _LOADED[0]
 
 
 @record

@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.intersect import _PARALLEL_ABOVE, _extension
+from ..core.threads import threads_for
 from ..model.errors import MassPropsError
 
 __all__ = ["Arrangement", "ArrangementError", "arrange"]
@@ -589,8 +591,6 @@ class _Compiled:
     """
 
     def __init__(self, geometry, faces, pairs):
-        from ..core.intersect import _extension, _PARALLEL_ABOVE
-        from ..core.threads import threads_for
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
@@ -612,7 +612,6 @@ class _Compiled:
         """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
         exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
         is within half of one; most intersections of an edge with a plane are already within one)."""
-        from ..core.intersect import _extension
         points, rounding = self.points[used].copy(), self.rounding[used].copy()
         loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
         if loose.size:
@@ -661,8 +660,6 @@ class _Compiled:
             return
         points = np.full((len(chosen), 2), math.nan)             # NaN: a patch's face, asked at its centroid
         points[:len(cells)] = self.inside[cells, 0]
-        from ..core.intersect import _extension, _PARALLEL_ABOVE
-        from ..core.threads import threads_for
         starts = np.zeros(len(chosen) + 1, dtype=np.int64)
         starts[1:] = np.cumsum([len(p) for p in partners])
         flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
@@ -757,7 +754,6 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
 
 def _patches(faces, cut):
     """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
-    from ..core.intersect import _extension
     faces = np.ascontiguousarray(faces, dtype=np.int64)
     return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
 

@@ -13,6 +13,9 @@ import math
 
 import numpy as np
 
+from ..core import _core
+from ..core.frame import check_box_range
+from ..core.intersect import ExactGeometry
 from ..model.errors import MeshGeometryError
 from .solid import Solid, shell_six_volumes, swept_volume
 
@@ -20,7 +23,6 @@ __all__ = ["solid_of", "resolve_shells", "joined_groups"]
 
 
 def _geometry(vertices):
-    from ..core.intersect import ExactGeometry
     return ExactGeometry(vertices)
 
 
@@ -63,8 +65,6 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if vertices.shape[0]:
         # Shell volumes are compared in mesh units³: they must not underflow or overflow there.  (The box in
         # one compiled pass: numpy's min and max along the rows of (n, 3) are ~10x slower on a small part.)
-        from ..core import _core
-        from ..core.frame import check_box_range
         low, high = _core.bounding_box(vertices)
         check_box_range([hi - lo for lo, hi in zip(low, high)])    # inf past the largest double: refused later
     repeated = weights is not None and bool(np.any(weights != 1))
