@@ -612,7 +612,7 @@ class _Compiled:
         """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
         exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
         is within half of one; most intersections of an edge with a plane are already within one)."""
-        points, rounding = self.points[used].copy(), self.rounding[used].copy()
+        points, rounding = self.points[used], self.rounding[used]         # (copies: fancy indexing)
         loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
         if loose.size:
             again, bounds = points[loose], rounding[loose]
@@ -674,10 +674,8 @@ class _Compiled:
         for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
             labels[chosen[q]] = (w, n, bool(o))
 
-    def fans(self, chosen):
-        """Triangles (k, 3) fanning the cells ``(c, outward)`` chosen, reversed where not outward."""
-        cells = np.array([c for c, _ in chosen], dtype=np.int64)
-        outward = np.array([o for _, o in chosen], dtype=bool)
+    def fans(self, cells, outward):
+        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward``."""
         start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
         fan = count - 2                                   # triangles per cell
         owner = np.repeat(np.arange(cells.size), fan)
@@ -766,7 +764,7 @@ def _distinct_rows(table):
     order = np.lexsort(table.T[::-1])
     ordered = table[order]
     first = np.ones(order.size, dtype=bool)
-    first[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    np.logical_or.reduce(ordered[1:] != ordered[:-1], axis=1, out=first[1:])
     index = np.empty(order.size, dtype=np.int64)
     index[order] = np.cumsum(first) - 1
     return ordered[first], index
@@ -805,8 +803,11 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         for t, u in pairs[compiled.kind == 2].tolist():
             partners.setdefault(t, []).append(u)
             partners.setdefault(u, []).append(t)
-        exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
-        unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+        if back.any():
+            exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
+            unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+        else:
+            exact, unsure = pairs[:0], set()
     else:
         exact, unsure = pairs, None
     for t, u in exact.tolist():
@@ -824,11 +825,10 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
             for x in (t, u):
                 if back[x]:
                     segments.setdefault(x, []).append(segment)
-    cut = np.zeros(m, dtype=bool)
+    cut = np.zeros(m, dtype=bool) if compiled is None else compiled.status == 1
     cut[list(segments)] = True
     pieces = []
     if compiled is not None:
-        cut |= compiled.status == 1
         # (normal None: the exact normal is made only if the exact path asks for it)
         pieces = [(t, c, None, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
                   for c, (t, drop) in enumerate(zip(compiled.face.tolist(), compiled.drop[compiled.face].tolist()))]
@@ -851,18 +851,14 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     kept_corners = _Corners(soup, 0 if compiled is None else compiled.points.shape[0])
     triangles = []
     keep = np.flatnonzero((bounding & owned)[:n_cells])
-    outward = (behind > 0)[keep].tolist()
-    fans = []
-    for k, out in zip(keep.tolist(), outward):
-        cell = pieces[k][1]
-        if isinstance(cell, list):
-            kept_corners.add_polygon(cell, triangles, out)
-        else:
-            fans.append((cell, out))
-    if fans:
-        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3), compiled.fans(fans)]
-    else:
-        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
+    outward = behind > 0
+    # the compiled cells are the first pieces, piece k being cell k; the exact path's follow
+    fanned = keep[:np.searchsorted(keep, 0 if compiled is None else compiled.face.shape[0])]
+    for k in keep[fanned.size:].tolist():
+        kept_corners.add_polygon(pieces[k][1], triangles, bool(outward[k]))
+    triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
+    if fanned.size:
+        triangles.append(compiled.fans(fanned, outward[fanned]))
     out = np.zeros((0, 3), dtype=np.int64)
     if uncut.size:
         # each face takes its patch's side: +1 kept as it is, -1 turned, 0 (and every cut face) left out
@@ -873,21 +869,23 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         turned = np.compress(signs < 0, faces, axis=0)
         if turned.size:
             out = np.concatenate([out, turned[:, ::-1]]).astype(np.int64, copy=False)
-    pieces = np.vstack(triangles)
+    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0]
     points, rounding = kept_corners.points()
     n = soup.scaled.shape[0]
     new = pieces >= n
     used = np.unique(pieces[new]) - n
-    if compiled is not None:
+    # the new corners the kept pieces use (ascending: the compiled core's first, numbered ahead of the exact
+    # path's), each with its rounding bound
+    table = np.empty((used.size, 6))
+    before = 0 if compiled is None else compiled.points.shape[0]
+    mine = used[:np.searchsorted(used, before)]
+    if mine.size:
         # the compiled corners the kept pieces use, rounded from their exact values
-        mine = used[used < compiled.points.shape[0]]
-        exact_points, exact_rounding = compiled.rounded(mine)
-        points = np.vstack([compiled.points, points])
-        rounding = np.vstack([compiled.rounding, rounding])
-        points[mine], rounding[mine] = exact_points, exact_rounding
-    # only the new corners the kept pieces use; one for points that round alike with the same bound
-    rows, index = _distinct_rows(np.hstack([points[used], rounding[used]]))
-    renumber = np.full(points.shape[0], -1, dtype=np.int64)
+        table[:mine.size, :3], table[:mine.size, 3:] = compiled.rounded(mine)
+    table[mine.size:, :3], table[mine.size:, 3:] = points[used[mine.size:] - before], rounding[used[mine.size:] - before]
+    # one for points that round alike with the same bound
+    rows, index = _distinct_rows(table)
+    renumber = np.full(before + points.shape[0], -1, dtype=np.int64)
     renumber[used] = index + n
     pieces[new] = renumber[pieces[new] - n]
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)
