@@ -1503,8 +1503,6 @@ static int columns_build(Labels *L, int axis)
     double lo[2] = {L->low[a1], L->low[a2]}, hi[2] = {L->high[a1], L->high[a2]};
     int side = (int)sqrt((double)L->m / 2.0);
     side = side < 1 ? 1 : (side > 1024 ? 1024 : side);
-    if (L->k <= 4)
-        side = 1;                 /* a few queries: each scans every face's box, cheaper than columns */
     Listed *listed = NULL;
     int64_t n_listed = 0, cap = 0;
     for (;;) {
@@ -1520,7 +1518,9 @@ static int columns_build(Labels *L, int axis)
             free(listed);
             return -1;
         }
-        /* only the columns about the queries' points are listed (a query reaching another is handed back) */
+        /* only the columns about the queries' points are listed (a query reaching another is handed back);
+         * `reach`: the range of columns those lie in */
+        int reach[4] = {side, -1, side, -1};
         for (int64_t q = 0; q < L->k; q++) {
             if (!(L->axes[q] >> axis & 1))
                 continue;
@@ -1528,6 +1528,8 @@ static int columns_build(Labels *L, int axis)
             double dx = 1e-6 * (hi[0] - lo[0]) + 1e-9 * fabs(p[a1]), dy = 1e-6 * (hi[1] - lo[1]) + 1e-9 * fabs(p[a2]);
             int x0 = column_of(c, 0, p[a1] - dx), x1 = column_of(c, 0, p[a1] + dx);
             int y0 = column_of(c, 1, p[a2] - dy), y1 = column_of(c, 1, p[a2] + dy);
+            reach[0] = x0 < reach[0] ? x0 : reach[0], reach[1] = x1 > reach[1] ? x1 : reach[1];
+            reach[2] = y0 < reach[2] ? y0 : reach[2], reach[3] = y1 > reach[3] ? y1 : reach[3];
             for (int x = x0; x <= x1; x++)
                 for (int y = y0; y <= y1; y++)
                     c->needed[(int64_t)x * side + y] = 1;
@@ -1539,6 +1541,8 @@ static int columns_build(Labels *L, int axis)
             int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
             int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
             entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
+            if (x1 < reach[0] || x0 > reach[1] || y1 < reach[2] || y0 > reach[3])
+                continue;                /* in no listed column */
             for (int x = x0; x <= x1; x++)
                 for (int y = y0; y <= y1; y++) {
                     int64_t cell = (int64_t)x * side + y;
