@@ -258,7 +258,9 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     delta = np.zeros(points.shape[0])
     delta[moved_vertices] = moved
     around = delta[faces]
-    touched = np.flatnonzero(around.max(axis=1) > 0)
+    # (the ufuncs' reductions called directly: the same sums, without numpy's Python-level wrappers, which
+    # cost more than the sums on the few pieces of an arrangement)
+    touched = np.flatnonzero(np.maximum.reduce(around, axis=1) > 0)
     faces, around = faces[touched], around[touched]
     a, b, c = (points[faces[:, k]] for k in range(3))
     k = touched.size
@@ -274,7 +276,7 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     perimeter = lengths[:k] + lengths[k:2 * k] + lengths[2 * k:3 * k]
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    total = float(np.sum(around.sum(axis=1) * enlarged)) / 3.0
+    total = float(np.add.reduce(np.add.reduce(around, axis=1) * enlarged)) / 3.0
     if apex is not None:
         total += _unmatched_walls(points, faces, delta, largest, apex)
     return total * (1 + 1e-9)
@@ -290,9 +292,14 @@ def _unmatched_walls(points, faces, delta, largest, apex):
     start = faces.reshape(-1)
     end = faces[:, [1, 2, 0]].reshape(-1)
     n = np.int64(points.shape[0])
-    keys, counts = np.unique(start * n + end, return_counts=True)
+    codes = np.sort(start * n + end)
+    first = np.empty(codes.size, dtype=bool)
+    first[:1] = True
+    np.not_equal(codes[1:], codes[:-1], out=first[1:])
+    keys = codes[first]                                           # each directed edge once, and its count
+    counts = np.diff(np.append(np.flatnonzero(first), codes.size))
     reverse = (keys % n) * n + keys // n
-    at = np.clip(np.searchsorted(keys, reverse), 0, keys.size - 1)
+    at = np.minimum(np.searchsorted(keys, reverse), keys.size - 1)
     surplus = counts - np.where(keys[at] == reverse, counts[at], 0)
     keep = surplus > 0
     i, j, surplus = keys[keep] // n, keys[keep] % n, surplus[keep]
@@ -301,7 +308,7 @@ def _unmatched_walls(points, faces, delta, largest, apex):
     lengths = np.linalg.norm(np.concatenate([pj - pi, pi - apex, pj - apex]), axis=1)   # row by row, as three calls
     wall = (lengths[:k] + largest) * (delta[i] + delta[j])
     reach = np.maximum(lengths[k:2 * k], lengths[2 * k:]) + largest
-    return float(np.sum(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
+    return float(np.add.reduce(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
 
 
 def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
