@@ -1541,8 +1541,12 @@ static int columns_build(Labels *L, int axis)
             int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
             int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
             entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
+            if (side > 1 && entries > 16 * L->m)
+                break;                   /* large faces: fewer columns (below), before listing them all */
             if (x1 < reach[0] || x0 > reach[1] || y1 < reach[2] || y0 > reach[3])
                 continue;                /* in no listed column */
+            x0 = x0 > reach[0] ? x0 : reach[0], x1 = x1 < reach[1] ? x1 : reach[1];
+            y0 = y0 > reach[2] ? y0 : reach[2], y1 = y1 < reach[3] ? y1 : reach[3];
             for (int x = x0; x <= x1; x++)
                 for (int y = y0; y <= y1; y++) {
                     int64_t cell = (int64_t)x * side + y;
