@@ -38,7 +38,7 @@ def tetra_determinants(points, tets):
     return np.asarray(det), np.asarray(bound)
 
 
-def shell_determinants(vertices, faces, labels, count):
+def shell_determinants(vertices, faces, labels, count, frame=None):
     """Σ det (six times the signed volume enclosed) of each shell, and a bound on its error.
 
     Parameters
@@ -48,6 +48,8 @@ def shell_determinants(vertices, faces, labels, count):
     labels : array_like, shape (m,), int
         Each face's shell, 0 .. count − 1 (:func:`massprops.core.shells`).
     count : int
+    frame : Frame, optional
+        ``frame_of(vertices)``, when the caller already has it.
 
     Returns
     -------
@@ -55,7 +57,8 @@ def shell_determinants(vertices, faces, labels, count):
         Scaled units (see the module note).
     """
     vertices = as_points(vertices)
-    frame = frame_of(vertices)
+    if frame is None:
+        frame = frame_of(vertices)
     labels = np.ascontiguousarray(labels, dtype=np.int64)
     det_sum, det_error = _core.shell_determinants(vertices, as_indices(faces), labels, int(count), frame.reference,
                                                   frame.scale_exp)

@@ -34,9 +34,15 @@ __all__ = ["ExactGeometry", "Intersections"]
 _SMALLEST = 2.0 ** -200
 
 
+_LOADED = []
+
+
 def _extension():
-    from . import _intersect
-    return _intersect
+    """The compiled module, imported when first asked for (an import statement costs microseconds a call)."""
+    if not _LOADED:
+        from . import _intersect
+        _LOADED.append(_intersect)
+    return _LOADED[0]
 
 
 @record
@@ -189,7 +195,12 @@ class ExactGeometry:
         found = _extension().pairs(self.vertices, faces, shells, active, int(n_shells), True, True, -1, int(threads))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
         pinched = None if found[7] < 0 else int(found[7])
-        return (np.unique(pairs, axis=0) if pairs.shape[0] > 1 else pairs.copy()), pinched
+        if pairs.shape[0] <= 1:
+            return pairs.copy(), pinched
+        # each pair once, lexicographically: as np.unique(pairs, axis=0), on one key per pair (faces < m)
+        m = max(faces.shape[0], 1)
+        keys = np.unique(pairs[:, 0] * m + pairs[:, 1])
+        return np.stack([keys // m, keys % m], axis=1), pinched
 
     def certificates(self, faces, shells=None, n_shells=1, *, threads=None):
         """Which vertex stars and which shells are certified to meet themselves only where they share.

@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.intersect import _PARALLEL_ABOVE, _extension
+from ..core.threads import threads_for
 from ..model.errors import MassPropsError
 
 __all__ = ["Arrangement", "ArrangementError", "arrange"]
@@ -127,19 +129,25 @@ class _Soup:
     """The faces as integers on one power-of-two grid, with the exact tests the arrangement needs."""
 
     def __init__(self, geometry, faces, weights):
-        scaled = geometry.vertices
         self.faces = faces
         self.weights = weights
-        mantissa, exponent = np.frexp(scaled)
-        whole = (mantissa * 2.0 ** 53).astype(np.int64)
-        nonzero = whole != 0
-        self.exponent = int((exponent[nonzero] - 53).min()) if nonzero.any() else 0
-        self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self.exponent, 0)
+        self._exponent = None                   # the integer grid is made when the exact path first asks
         self._points = {}
         self._planes = {}
-        self.scaled = scaled
+        self.scaled = geometry.vertices
         self._columns = {}
         self._boxes = None
+
+    @property
+    def exponent(self):
+        """The grid's unit is ``2**exponent``: every coordinate is an integer multiple of it."""
+        if self._exponent is None:
+            mantissa, exponent = np.frexp(self.scaled)
+            whole = (mantissa * 2.0 ** 53).astype(np.int64)
+            nonzero = whole != 0
+            self._exponent = int((exponent[nonzero] - 53).min()) if nonzero.any() else 0
+            self._whole, self._shift = whole, np.where(nonzero, exponent - 53 - self._exponent, 0)
+        return self._exponent
 
     def _floats(self):
         """The faces' corners and boxes in floating point, for :meth:`_near` (made when first asked)."""
@@ -158,6 +166,7 @@ class _Soup:
         """Vertex ``v`` as integers (3)."""
         found = self._points.get(v)
         if found is None:
+            self.exponent                       # noqa: B018 - makes the grid
             found = tuple(int(m) << int(s) for m, s in zip(self._whole[v].tolist(), self._shift[v].tolist()))
             self._points[v] = found
         return found
@@ -532,6 +541,8 @@ class _Corners:
         stays exact.  The error ``|x/w - r|`` is found exactly in integers and
         rounded up.
         """
+        if not self.new:
+            return np.zeros((0, 3)), np.zeros((0, 3))
         unit = math.ldexp(1.0, self.soup.exponent)
         values, errors = [], []
         for q in self.new:
@@ -580,8 +591,6 @@ class _Compiled:
     """
 
     def __init__(self, geometry, faces, pairs):
-        from ..core.intersect import _extension, _PARALLEL_ABOVE
-        from ..core.threads import threads_for
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
@@ -603,8 +612,7 @@ class _Compiled:
         """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
         exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
         is within half of one; most intersections of an edge with a plane are already within one)."""
-        from ..core.intersect import _extension
-        points, rounding = self.points[used].copy(), self.rounding[used].copy()
+        points, rounding = self.points[used], self.rounding[used]         # (copies: fancy indexing)
         loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
         if loose.size:
             again, bounds = points[loose], rounding[loose]
@@ -641,25 +649,23 @@ class _Compiled:
     def label(self, soup, pieces, first_patch, labels):
         """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
         weight of the faces in their plane that hold their inner point) and patches."""
-        chosen, faces, points, partners = [], [], [], []
-        nan = (math.nan, math.nan)
-        inside = self.inside
-        for k, (t, cell, _, its_partners, _, _) in enumerate(pieces):
-            if k >= first_patch:
-                chosen.append(k), faces.append(t), points.append(nan), partners.append(())
-            elif not isinstance(cell, list):
-                chosen.append(k), faces.append(t), points.append(inside[cell, 0]), partners.append(its_partners)
+        chosen, faces, cells, partners = [], [], [], []
+        for k in range(first_patch):
+            t, cell, _, its_partners, _, _ = pieces[k]
+            if not isinstance(cell, list):
+                chosen.append(k), faces.append(t), cells.append(cell), partners.append(its_partners)
+        for k in range(first_patch, len(pieces)):
+            chosen.append(k), faces.append(pieces[k][0]), partners.append(())
         if not chosen:
             return
-        from ..core.intersect import _extension, _PARALLEL_ABOVE
-        from ..core.threads import threads_for
+        points = np.full((len(chosen), 2), math.nan)             # NaN: a patch's face, asked at its centroid
+        points[:len(cells)] = self.inside[cells, 0]
         starts = np.zeros(len(chosen) + 1, dtype=np.int64)
         starts[1:] = np.cumsum([len(p) for p in partners])
         flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
         front, net, owned, status = _extension().labels(
             soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
-            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64),
-            np.ascontiguousarray(np.array(points, dtype=np.float64).reshape(-1, 2)), starts, flat,
+            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64), points, starts, flat,
             threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
         answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
         fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()
@@ -668,10 +674,8 @@ class _Compiled:
         for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
             labels[chosen[q]] = (w, n, bool(o))
 
-    def fans(self, chosen):
-        """Triangles (k, 3) fanning the cells ``(c, outward)`` chosen, reversed where not outward."""
-        cells = np.array([c for c, _ in chosen], dtype=np.int64)
-        outward = np.array([o for _, o in chosen], dtype=bool)
+    def fans(self, cells, outward):
+        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward``."""
         start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
         fan = count - 2                                   # triangles per cell
         owner = np.repeat(np.arange(cells.size), fan)
@@ -748,9 +752,22 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
 
 def _patches(faces, cut):
     """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
-    from ..core.intersect import _extension
     faces = np.ascontiguousarray(faces, dtype=np.int64)
     return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
+
+
+def _distinct_rows(table):
+    """The distinct rows of a float table in lexicographic order, and each row's place among them (as
+    ``np.unique(table, axis=0, return_inverse=True)``, which sorts a structured copy: several times slower)."""
+    if table.shape[0] == 0:
+        return table, np.zeros(0, dtype=np.int64)
+    order = np.lexsort(table.T[::-1])
+    ordered = table[order]
+    first = np.ones(order.size, dtype=bool)
+    np.logical_or.reduce(ordered[1:] != ordered[:-1], axis=1, out=first[1:])
+    index = np.empty(order.size, dtype=np.int64)
+    index[order] = np.cumsum(first) - 1
+    return ordered[first], index
 
 
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
@@ -786,8 +803,11 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         for t, u in pairs[compiled.kind == 2].tolist():
             partners.setdefault(t, []).append(u)
             partners.setdefault(u, []).append(t)
-        exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
-        unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+        if back.any():
+            exact = pairs[back[pairs[:, 0]] | back[pairs[:, 1]]]
+            unsure = set(map(tuple, pairs[compiled.kind == -1].tolist()))
+        else:
+            exact, unsure = pairs[:0], set()
     else:
         exact, unsure = pairs, None
     for t, u in exact.tolist():
@@ -805,15 +825,13 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
             for x in (t, u):
                 if back[x]:
                     segments.setdefault(x, []).append(segment)
-    cut = np.zeros(m, dtype=bool)
+    cut = np.zeros(m, dtype=bool) if compiled is None else compiled.status == 1
     cut[list(segments)] = True
     pieces = []
     if compiled is not None:
-        cut |= compiled.status == 1
-        drops = compiled.drop.tolist()
         # (normal None: the exact normal is made only if the exact path asks for it)
-        pieces = [(t, c, None, partners.get(t, ()), (drops[t] + 1) % 3, (drops[t] + 2) % 3)
-                  for c, t in enumerate(compiled.face.tolist())]
+        pieces = [(t, c, None, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
+                  for c, (t, drop) in enumerate(zip(compiled.face.tolist(), compiled.drop[compiled.face].tolist()))]
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -822,9 +840,10 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     uncut = np.flatnonzero(~cut)
     if uncut.size:
         patch = _patches(faces, cut)
-        patches, first = np.unique(patch[uncut], return_index=True)
-        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first
-        pieces.extend((t, None, None, (), 0, 1) for t in uncut[first].tolist())
+        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
+        # labelled by its lowest face (uncut; a cut face is labelled by itself)
+        roots = uncut[patch[uncut] == uncut]
+        pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
     labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
     negative = bool(np.any(front < 0) or np.any(behind < 0))
@@ -832,40 +851,41 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     kept_corners = _Corners(soup, 0 if compiled is None else compiled.points.shape[0])
     triangles = []
     keep = np.flatnonzero((bounding & owned)[:n_cells])
-    outward = (behind > 0)[keep].tolist()
-    fans = []
-    for k, out in zip(keep.tolist(), outward):
-        cell = pieces[k][1]
-        if isinstance(cell, list):
-            kept_corners.add_polygon(cell, triangles, out)
-        else:
-            fans.append((cell, out))
-    if fans:
-        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3), compiled.fans(fans)]
-    else:
-        triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
-    kept = []
+    outward = behind > 0
+    # the compiled cells are the first pieces, piece k being cell k; the exact path's follow
+    fanned = keep[:np.searchsorted(keep, 0 if compiled is None else compiled.face.shape[0])]
+    for k in keep[fanned.size:].tolist():
+        kept_corners.add_polygon(pieces[k][1], triangles, bool(outward[k]))
+    triangles = [np.array(triangles, dtype=np.int64).reshape(-1, 3)]
+    if fanned.size:
+        triangles.append(compiled.fans(fanned, outward[fanned]))
+    out = np.zeros((0, 3), dtype=np.int64)
     if uncut.size:
-        side = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
-        signs = side[np.searchsorted(patches, patch[uncut])]
-        kept_faces = faces[uncut]
-        kept = [kept_faces[signs > 0], kept_faces[signs < 0][:, ::-1]]
-    out = np.vstack(kept).astype(np.int64) if kept else np.zeros((0, 3), dtype=np.int64)
-    pieces = np.vstack(triangles)
+        # each face takes its patch's side: +1 kept as it is, -1 turned, 0 (and every cut face) left out
+        side = np.zeros(m, dtype=np.int8)
+        side[roots] = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
+        signs = side[patch]
+        out = np.compress(signs > 0, faces, axis=0).astype(np.int64, copy=False)   # (compress: ~4x a boolean index)
+        turned = np.compress(signs < 0, faces, axis=0)
+        if turned.size:
+            out = np.concatenate([out, turned[:, ::-1]]).astype(np.int64, copy=False)
+    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0]
     points, rounding = kept_corners.points()
     n = soup.scaled.shape[0]
     new = pieces >= n
     used = np.unique(pieces[new]) - n
-    if compiled is not None:
+    # the new corners the kept pieces use (ascending: the compiled core's first, numbered ahead of the exact
+    # path's), each with its rounding bound
+    table = np.empty((used.size, 6))
+    before = 0 if compiled is None else compiled.points.shape[0]
+    mine = used[:np.searchsorted(used, before)]
+    if mine.size:
         # the compiled corners the kept pieces use, rounded from their exact values
-        mine = used[used < compiled.points.shape[0]]
-        exact_points, exact_rounding = compiled.rounded(mine)
-        points = np.vstack([compiled.points, points])
-        rounding = np.vstack([compiled.rounding, rounding])
-        points[mine], rounding[mine] = exact_points, exact_rounding
-    # only the new corners the kept pieces use; one for points that round alike with the same bound
-    rows, index = np.unique(np.hstack([points[used], rounding[used]]), axis=0, return_inverse=True)
-    renumber = np.full(points.shape[0], -1, dtype=np.int64)
-    renumber[used] = index.reshape(-1) + n
+        table[:mine.size, :3], table[:mine.size, 3:] = compiled.rounded(mine)
+    table[mine.size:, :3], table[mine.size:, 3:] = points[used[mine.size:] - before], rounding[used[mine.size:] - before]
+    # one for points that round alike with the same bound
+    rows, index = _distinct_rows(table)
+    renumber = np.full(before + points.shape[0], -1, dtype=np.int64)
+    renumber[used] = index + n
     pieces[new] = renumber[pieces[new] - n]
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

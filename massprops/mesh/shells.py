@@ -13,6 +13,9 @@ import math
 
 import numpy as np
 
+from ..core import _core
+from ..core.frame import check_box_range
+from ..core.intersect import ExactGeometry
 from ..model.errors import MeshGeometryError
 from .solid import Solid, shell_six_volumes, swept_volume
 
@@ -20,7 +23,6 @@ __all__ = ["solid_of", "resolve_shells", "joined_groups"]
 
 
 def _geometry(vertices):
-    from ..core.intersect import ExactGeometry
     return ExactGeometry(vertices)
 
 
@@ -63,8 +65,6 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if vertices.shape[0]:
         # Shell volumes are compared in mesh units³: they must not underflow or overflow there.  (The box in
         # one compiled pass: numpy's min and max along the rows of (n, 3) are ~10x slower on a small part.)
-        from ..core import _core
-        from ..core.frame import check_box_range
         low, high = _core.bounding_box(vertices)
         check_box_range([hi - lo for lo, hi in zip(low, high)])    # inf past the largest double: refused later
     repeated = weights is not None and bool(np.any(weights != 1))
@@ -86,7 +86,7 @@ def _nested(mesh, labels, n_shells, geometry, path, repair):
     """Shells that do not meet: each bounds ``{w > 0}``, or lies inside others wound alike and adds nothing."""
     vertices, faces = mesh.vertices, mesh.faces
     checks = {"self_intersection": "none"}
-    six, bound = shell_six_volumes(vertices, faces, labels, n_shells)
+    six, bound = shell_six_volumes(vertices, faces, labels, n_shells, geometry.frame)
     zero = _zero_shells(vertices, faces, labels, six, bound)
     live = ~zero
     warnings = []
@@ -153,18 +153,27 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     vertices, faces = mesh.vertices, mesh.faces
     m = faces.shape[0]
     weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
-    six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
-                                   n_shells)
+    repeats = bool(np.any(weights != 1))
+    if repeats:
+        six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
+                                       n_shells, geometry.frame)
+    else:
+        six, bound = shell_six_volumes(vertices, faces, labels, n_shells, geometry.frame)
     area = ~geometry.zero_area(faces)
-    index = np.cumsum(area) - 1
-    arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+    if area.all():
+        # (no face of zero area: the faces as they are, not copies renumbered)
+        arrange_faces, arrange_weights, arrange_pairs = faces, weights, pairs
+    else:
+        index = np.cumsum(area) - 1
+        arrange_faces, arrange_weights, arrange_pairs = faces[area], weights[area], index[pairs]
+    arranged = arrange(geometry, arrange_faces, arrange_weights, arrange_pairs)
     flipped = False
     if _empty(arranged):
         # Positive nowhere: a surface wound inward as a whole (the file's convention), turned as a whole.
         flipped = True
         faces = faces[:, ::-1].copy()
         six = -six
-        arranged = arrange(geometry, faces[area], weights[area], index[pairs])
+        arranged = arrange(geometry, faces[area], arrange_weights, arrange_pairs)
         if _empty(arranged):
             raise MeshGeometryError("the solid has zero volume: the faces enclose nothing (every region they wind "
                                     "around cancels)", path=path,
@@ -181,7 +190,7 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
             resolved.append(f"{inward} cavit{'ies' if inward > 1 else 'y'} (a shell wound inward) "
                             f"cross{'' if inward > 1 else 'es'} a body's surface")
         resolved.append(f"{met.size} shells meet")
-    if np.any(weights != 1):
+    if repeats:
         resolved.append("faces repeat")
     warnings = []
     flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound), ~area)

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..model.records import record
 from ..model.errors import MeshGeometryError
-from ..core import edge_summary, face_groups, reference_frame, shell_determinants
+from ..core import _core, edge_summary, face_groups, reference_frame, shell_determinants
 from ..core import shells as count_shells
 
 __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
@@ -203,19 +203,20 @@ def _one_side(mesh, faces, path):
         f"each of the {faces.shape[0]} faces encloses"], None
 
 
-def shell_six_volumes(vertices, faces, labels, n_shells):
+def shell_six_volumes(vertices, faces, labels, n_shells, frame=None):
     """Six times each shell's signed volume and a bound on its error (rigorous).
 
     The compiled core's determinants (:func:`massprops.core.shell_determinants`:
     exact shift and scale, Shewchuk's bound per face, compensated sums per
-    shell), brought back to mesh units by the frame's power of two.
+    shell), brought back to mesh units by the frame's power of two.  ``frame``
+    is ``frame_of(vertices)`` when the caller already has it.
 
     Returns
     -------
     six_volume, bound : ndarray, shape (n_shells,), mesh units³
     """
-    _, scale_exp = reference_frame(vertices)
-    sums, bounds = shell_determinants(vertices, faces, labels, n_shells)
+    scale_exp = reference_frame(vertices)[1] if frame is None else frame.scale_exp
+    sums, bounds = shell_determinants(vertices, faces, labels, n_shells, frame=frame)
     factor = math.ldexp(1.0, 3 * scale_exp)
     return sums * factor, bounds * factor
 
@@ -256,15 +257,28 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
         return 0.0
     delta = np.zeros(points.shape[0])
     delta[moved_vertices] = moved
-    touched = np.flatnonzero(delta[faces].max(axis=1) > 0)
-    a, b, c = (points[faces[touched, k]] for k in range(3))
-    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    perimeter = np.linalg.norm(b - a, axis=1) + np.linalg.norm(c - b, axis=1) + np.linalg.norm(a - c, axis=1)
+    around = delta[faces]
+    # (the ufuncs' reductions called directly: the same sums, without numpy's Python-level wrappers, which
+    # cost more than the sums on the few pieces of an arrangement)
+    touched = np.flatnonzero(np.maximum.reduce(around, axis=1) > 0)
+    faces, around = faces[touched], around[touched]
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    k = touched.size
+    # the edges' lengths in one call (row by row as three); the cross product as np.cross computes it
+    sides = np.empty((4 * k, 3))
+    np.subtract(b, a, out=sides[:k]), np.subtract(c, b, out=sides[k:2 * k]), np.subtract(a, c, out=sides[2 * k:3 * k])
+    u, v, n = sides[:k], c - a, sides[3 * k:]
+    np.subtract(u[:, 1] * v[:, 2], u[:, 2] * v[:, 1], out=n[:, 0])
+    np.subtract(u[:, 2] * v[:, 0], u[:, 0] * v[:, 2], out=n[:, 1])
+    np.subtract(u[:, 0] * v[:, 1], u[:, 1] * v[:, 0], out=n[:, 2])
+    lengths = np.linalg.norm(sides, axis=1)
+    area = 0.5 * lengths[3 * k:]
+    perimeter = lengths[:k] + lengths[k:2 * k] + lengths[2 * k:3 * k]
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    total = float(np.sum(delta[faces[touched]].sum(axis=1) * enlarged)) / 3.0
+    total = float(np.add.reduce(np.add.reduce(around, axis=1) * enlarged)) / 3.0
     if apex is not None:
-        total += _unmatched_walls(points, faces[touched], delta, largest, apex)
+        total += _unmatched_walls(points, faces, delta, largest, apex)
     return total * (1 + 1e-9)
 
 
@@ -278,15 +292,23 @@ def _unmatched_walls(points, faces, delta, largest, apex):
     start = faces.reshape(-1)
     end = faces[:, [1, 2, 0]].reshape(-1)
     n = np.int64(points.shape[0])
-    keys, counts = np.unique(start * n + end, return_counts=True)
+    codes = np.sort(start * n + end)
+    first = np.empty(codes.size, dtype=bool)
+    first[:1] = True
+    np.not_equal(codes[1:], codes[:-1], out=first[1:])
+    keys = codes[first]                                           # each directed edge once, and its count
+    counts = np.diff(np.append(np.flatnonzero(first), codes.size))
     reverse = (keys % n) * n + keys // n
-    at = np.clip(np.searchsorted(keys, reverse), 0, keys.size - 1)
+    at = np.minimum(np.searchsorted(keys, reverse), keys.size - 1)
     surplus = counts - np.where(keys[at] == reverse, counts[at], 0)
     keep = surplus > 0
     i, j, surplus = keys[keep] // n, keys[keep] % n, surplus[keep]
-    wall = (np.linalg.norm(points[j] - points[i], axis=1) + largest) * (delta[i] + delta[j])
-    reach = np.maximum(np.linalg.norm(points[i] - apex, axis=1), np.linalg.norm(points[j] - apex, axis=1)) + largest
-    return float(np.sum(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
+    k = i.size
+    pi, pj = points[i], points[j]
+    lengths = np.linalg.norm(np.concatenate([pj - pi, pi - apex, pj - apex]), axis=1)   # row by row, as three calls
+    wall = (lengths[:k] + largest) * (delta[i] + delta[j])
+    reach = np.maximum(lengths[k:2 * k], lengths[2 * k:]) + largest
+    return float(np.add.reduce(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
 
 
 def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
@@ -308,7 +330,8 @@ def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):
     det_error, first_error, second_error = moments.det_error, moments.first_error, moments.second_error
     if swept:
         scale = math.ldexp(1.0, -moments.scale_exp)
-        low, high = vertices.min(axis=0), vertices.max(axis=0)
+        # (the box in one compiled pass: numpy's min and max along the rows of (n, 3) are ~10x slower)
+        low, high = (np.array(x) for x in _core.bounding_box(np.ascontiguousarray(vertices, dtype=np.float64)))
         radius = float(np.linalg.norm(np.maximum(np.abs(low - moments.reference), np.abs(high - moments.reference))))
         r = (radius + reach) * scale * (1 + 1e-9)
         s = swept * scale ** 3 * (1 + 1e-9)

@@ -1468,6 +1468,7 @@ typedef struct {
     const int64_t *F, *weight;
     int64_t m;
     double *lo, *hi;          /* 3 per face */
+    double low[3], high[3];   /* every face's box */
     Columns columns[3];
     const int64_t *qface;
     const double *qxy;
@@ -1489,22 +1490,21 @@ static inline int column_of(const Columns *c, int d, double x)
     return v >= c->side - 1 ? c->side - 1 : (int)v;
 }
 
+/* A face listed in a column: (column, face), sorted into the columns after one pass over the faces. */
+typedef struct {
+    int64_t cell;
+    int32_t face;
+} Listed;
+
 static int columns_build(Labels *L, int axis)
 {
     Columns *c = L->columns + axis;
     int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (int64_t t = 0; t < L->m; t++) {
-        lo[0] = dmin(lo[0], L->lo[3 * t + a1]), hi[0] = dmax(hi[0], L->hi[3 * t + a1]);
-        lo[1] = dmin(lo[1], L->lo[3 * t + a2]), hi[1] = dmax(hi[1], L->hi[3 * t + a2]);
-    }
-    int32_t *range = malloc(sizeof(int32_t) * 4 * (L->m ? L->m : 1));
-    if (!range)
-        return -1;
+    double lo[2] = {L->low[a1], L->low[a2]}, hi[2] = {L->high[a1], L->high[a2]};
     int side = (int)sqrt((double)L->m / 2.0);
     side = side < 1 ? 1 : (side > 1024 ? 1024 : side);
-    if (L->k <= 32)
-        side = 1;                 /* a few queries: each scans every face's box, cheaper than columns */
+    Listed *listed = NULL;
+    int64_t n_listed = 0, cap = 0;
     for (;;) {
         for (int d = 0; d < 2; d++) {
             c->origin[d] = L->m ? lo[d] : 0.0;
@@ -1512,24 +1512,15 @@ static int columns_build(Labels *L, int axis)
             c->inverse[d] = extent > 0.0 ? side / extent : 1.0;
         }
         c->side = side;
-        int64_t entries = 0;
-        for (int64_t t = 0; t < L->m; t++) {
-            int32_t *r = range + 4 * t;
-            r[0] = column_of(c, 0, L->lo[3 * t + a1]), r[1] = column_of(c, 0, L->hi[3 * t + a1]);
-            r[2] = column_of(c, 1, L->lo[3 * t + a2]), r[3] = column_of(c, 1, L->hi[3 * t + a2]);
-            entries += (int64_t)(r[1] - r[0] + 1) * (r[3] - r[2] + 1);
-        }
-        if (side > 1 && entries > 16 * L->m) {
-            side = side / 2 > 1 ? side / 2 : 1;       /* large faces: fewer, larger columns */
-            continue;
-        }
-        c->begin = calloc((size_t)side * side + 1, sizeof(int64_t));
+        free(c->needed);
         c->needed = calloc((size_t)side * side, 1);
-        if (!c->begin || !c->needed) {
-            free(range);
+        if (!c->needed) {
+            free(listed);
             return -1;
         }
-        /* only the columns about the queries' points are listed (a query reaching another is handed back) */
+        /* only the columns about the queries' points are listed (a query reaching another is handed back);
+         * `reach`: the range of columns those lie in */
+        int reach[4] = {side, -1, side, -1};
         for (int64_t q = 0; q < L->k; q++) {
             if (!(L->axes[q] >> axis & 1))
                 continue;
@@ -1537,44 +1528,66 @@ static int columns_build(Labels *L, int axis)
             double dx = 1e-6 * (hi[0] - lo[0]) + 1e-9 * fabs(p[a1]), dy = 1e-6 * (hi[1] - lo[1]) + 1e-9 * fabs(p[a2]);
             int x0 = column_of(c, 0, p[a1] - dx), x1 = column_of(c, 0, p[a1] + dx);
             int y0 = column_of(c, 1, p[a2] - dy), y1 = column_of(c, 1, p[a2] + dy);
+            reach[0] = x0 < reach[0] ? x0 : reach[0], reach[1] = x1 > reach[1] ? x1 : reach[1];
+            reach[2] = y0 < reach[2] ? y0 : reach[2], reach[3] = y1 > reach[3] ? y1 : reach[3];
             for (int x = x0; x <= x1; x++)
                 for (int y = y0; y <= y1; y++)
                     c->needed[(int64_t)x * side + y] = 1;
         }
-        entries = 0;
+        /* one pass: each face's columns, counted, and those listed kept */
+        int64_t entries = 0;
+        n_listed = 0;
         for (int64_t t = 0; t < L->m; t++) {
-            const int32_t *r = range + 4 * t;
-            for (int x = r[0]; x <= r[1]; x++)
-                for (int y = r[2]; y <= r[3]; y++) {
+            int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
+            int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
+            entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
+            if (side > 1 && entries > 16 * L->m)
+                break;                   /* large faces: fewer columns (below), before listing them all */
+            if (x1 < reach[0] || x0 > reach[1] || y1 < reach[2] || y0 > reach[3])
+                continue;                /* in no listed column */
+            x0 = x0 > reach[0] ? x0 : reach[0], x1 = x1 < reach[1] ? x1 : reach[1];
+            y0 = y0 > reach[2] ? y0 : reach[2], y1 = y1 < reach[3] ? y1 : reach[3];
+            for (int x = x0; x <= x1; x++)
+                for (int y = y0; y <= y1; y++) {
                     int64_t cell = (int64_t)x * side + y;
-                    if (c->needed[cell]) {
-                        c->begin[cell + 1]++;
-                        entries++;
+                    if (!c->needed[cell])
+                        continue;
+                    if (n_listed == cap) {
+                        int64_t grown = cap ? 2 * cap : 1024;
+                        Listed *more = realloc(listed, sizeof(Listed) * grown);
+                        if (!more) {
+                            free(listed);
+                            return -1;
+                        }
+                        listed = more, cap = grown;
                     }
+                    listed[n_listed++] = (Listed){cell, (int32_t)t};
                 }
         }
-        c->face = malloc(sizeof(int32_t) * (entries ? entries : 1));
-        if (!c->face) {
-            free(range);
-            return -1;
+        if (side > 1 && entries > 16 * L->m) {
+            side = side / 2 > 1 ? side / 2 : 1;       /* large faces: fewer, larger columns */
+            continue;
         }
-        for (int64_t q = 0; q < (int64_t)side * side; q++)
-            c->begin[q + 1] += c->begin[q];
-        for (int64_t t = 0; t < L->m; t++) {
-            const int32_t *r = range + 4 * t;
-            for (int x = r[0]; x <= r[1]; x++)
-                for (int y = r[2]; y <= r[3]; y++) {
-                    int64_t cell = (int64_t)x * side + y;
-                    if (c->needed[cell])
-                        c->face[c->begin[cell]++] = (int32_t)t;
-                }
-        }
-        for (int64_t q = (int64_t)side * side; q > 0; q--)
-            c->begin[q] = c->begin[q - 1];
-        c->begin[0] = 0;
-        free(range);
-        return 0;
+        break;
     }
+    /* the listed faces sorted into their columns, each column's faces ascending */
+    c->begin = calloc((size_t)side * side + 1, sizeof(int64_t));
+    c->face = malloc(sizeof(int32_t) * (n_listed ? n_listed : 1));
+    if (!c->begin || !c->face) {
+        free(listed);
+        return -1;
+    }
+    for (int64_t e = 0; e < n_listed; e++)
+        c->begin[listed[e].cell + 1]++;
+    for (int64_t q = 0; q < (int64_t)side * side; q++)
+        c->begin[q + 1] += c->begin[q];
+    for (int64_t e = 0; e < n_listed; e++)
+        c->face[c->begin[listed[e].cell]++] = listed[e].face;
+    for (int64_t q = (int64_t)side * side; q > 0; q--)
+        c->begin[q] = c->begin[q - 1];
+    c->begin[0] = 0;
+    free(listed);
+    return 0;
 }
 
 static inline const double *lcorner(const Labels *L, int64_t f, int k) { return L->V + 3 * L->F[3 * f + k]; }
@@ -1866,26 +1879,23 @@ int label_queries(const double *V, const int64_t *F, const int64_t *weight, int6
     L.hi = malloc(sizeof(double) * 3 * (m ? m : 1));
     if (!L.lo || !L.hi)
         goto done;
+    for (int d = 0; d < 3; d++)
+        L.low[d] = INFINITY, L.high[d] = -INFINITY;
     for (int64_t t = 0; t < m; t++) {
         const double *a = lcorner(&L, t, 0), *b = lcorner(&L, t, 1), *c = lcorner(&L, t, 2);
         for (int d = 0; d < 3; d++) {
             L.lo[3 * t + d] = dmin(a[d], dmin(b[d], c[d]));
             L.hi[3 * t + d] = dmax(a[d], dmax(b[d], c[d]));
+            L.low[d] = dmin(L.low[d], L.lo[3 * t + d]), L.high[d] = dmax(L.high[d], L.hi[3 * t + d]);
         }
     }
     /* columns only along the axes the queries' rays take, listed only about the queries' points; the
      * common axis is the one the faces' box is thinnest along (rays cross fewer faces, as a rule) */
     int used[3] = {0, 0, 0};
-    {
-        double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (int64_t t = 0; t < m; t++)
-            for (int d = 0; d < 3; d++)
-                low[d] = dmin(low[d], L.lo[3 * t + d]), high[d] = dmax(high[d], L.hi[3 * t + d]);
-        L.axis = 0;
-        for (int d = 1; d < 3; d++)
-            if (high[d] - low[d] < high[L.axis] - low[L.axis])
-                L.axis = d;
-    }
+    L.axis = 0;
+    for (int d = 1; d < 3; d++)
+        if (L.high[d] - L.low[d] < L.high[L.axis] - L.low[L.axis])
+            L.axis = d;
     L.approx = malloc(sizeof(double) * 3 * (k ? k : 1));
     L.axes = malloc(k ? k : 1);
     if (!L.approx || !L.axes)
@@ -1933,13 +1943,21 @@ static int64_t root_of(int64_t *parent, int64_t x)
     return x;
 }
 
+/* A corner of a face at a vertex: the face, and the vertices its edges there lead to and come from. */
+typedef struct {
+    int32_t next, prev;
+    uint32_t face;
+} Corner;
+
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label)
 {
+    if (m >= ((int64_t)1 << 32))
+        return -1;
     int64_t n = 0;
     for (int64_t i = 0; i < 3 * m; i++)
         n = F[i] + 1 > n ? F[i] + 1 : n;
     int64_t *begin = calloc(n + 1, sizeof(int64_t));
-    int32_t *around = malloc(sizeof(int32_t) * (3 * m + 1));
+    Corner *around = malloc(sizeof(Corner) * (3 * m + 1));       /* the corners at each vertex (vertices < 2**31) */
     if (!begin || !around) {
         free(begin), free(around);
         return -1;
@@ -1948,8 +1966,10 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
         begin[F[i] + 1]++;
     for (int64_t v = 0; v < n; v++)
         begin[v + 1] += begin[v];
-    for (int64_t i = 0; i < 3 * m; i++)
-        around[begin[F[i]]++] = (int32_t)(i / 3);
+    for (int64_t t = 0; t < m; t++)
+        for (int k = 0; k < 3; k++)
+            around[begin[F[3 * t + k]]++] = (Corner){(int32_t)F[3 * t + (k + 1) % 3], (int32_t)F[3 * t + (k + 2) % 3],
+                                                     (uint32_t)t};
     for (int64_t v = n; v > 0; v--)
         begin[v] = begin[v - 1];
     begin[0] = 0;
@@ -1962,20 +1982,21 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
             int64_t a = F[3 * t + k], b = F[3 * t + (k + 1) % 3];
             if (a > b)
                 continue;        /* the face across, if it pairs with this one, runs b -> a: seen from there */
-            /* the faces using edge ab either way: all are among a's faces */
+            /* the edges a -> b and b -> a of every face: each leaves one of a's corners or enters one */
             int count = 0;
             int64_t other = -1;
             int reverse = 0;
             for (int64_t e = begin[a]; e < begin[a + 1]; e++) {
-                int64_t f = around[e];
-                const int64_t *g = F + 3 * f;
-                for (int q = 0; q < 3; q++) {
-                    int64_t x = g[q], y = g[(q + 1) % 3];
-                    if ((x == a && y == b) || (x == b && y == a)) {
-                        count++;
-                        if (f != t)
-                            other = f, reverse = x == b;
-                    }
+                const Corner *c = around + e;
+                if (c->next == b) {
+                    count++;
+                    if (c->face != t)
+                        other = c->face, reverse = 0;
+                }
+                if (c->prev == b) {
+                    count++;
+                    if (c->face != t)
+                        other = c->face, reverse = 1;
                 }
             }
             if (count == 2 && other >= 0 && reverse && !cut[other]) {
