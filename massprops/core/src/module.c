@@ -587,6 +587,31 @@ static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
     return Py_BuildValue("(NN)", scaled, moved);
 }
 
+static PyObject *core_largest_squared_distance(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    double centre[3], largest;
+    if (!PyArg_ParseTuple(args, "O(ddd)", &object, &centre[0], &centre[1], &centre[2])
+            || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    largest = largest_squared_distance(view.buf, view.len / 24, centre);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return PyFloat_FromDouble(largest);
+}
+
+static PyObject *core_jacobi(PyObject *self, PyObject *args)
+{
+    double a[9], moments[3], vectors[9], bound;
+    if (!PyArg_ParseTuple(args, "(ddd)(ddd)(ddd)", &a[0], &a[1], &a[2], &a[3], &a[4], &a[5], &a[6], &a[7], &a[8]))
+        return NULL;
+    jacobi3(a, moments, vectors, &bound);
+    return Py_BuildValue("[ddd][[ddd][ddd][ddd]]d", moments[0], moments[1], moments[2], vectors[0], vectors[1],
+                         vectors[2], vectors[3], vectors[4], vectors[5], vectors[6], vectors[7], vectors[8], bound);
+}
+
 static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
     {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
@@ -605,6 +630,10 @@ static PyMethodDef methods[] = {
     {"shift_is_exact", core_shift_is_exact, METH_VARARGS, "shift_is_exact(vertices, centre) -> 3 bools"},
     {"scale_snapped", core_scale_snapped, METH_VARARGS,
      "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
+    {"largest_squared_distance", core_largest_squared_distance, METH_VARARGS,
+     "largest_squared_distance(vertices, centre) -> max of (dx*dx + dz*dz) + dy*dy over the vertices"},
+    {"jacobi", core_jacobi, METH_VARARGS,
+     "jacobi(rows) -> (moments ascending, vectors as rows of columns, backward error) of a symmetric 3x3"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_core", "The compiled core of massprops.", -1, methods};
