@@ -330,6 +330,25 @@ static PyObject *core_shells(PyObject *self, PyObject *args)
     return Py_BuildValue("(NL)", buffer_wrap(labels, 'q', 8, m, 0), (long long)count);
 }
 
+static PyObject *core_unused_vertices(PyObject *self, PyObject *args)
+{
+    PyObject *face_object;
+    Py_buffer faces;
+    Py_ssize_t n;
+    int kind, outside, status;
+    int64_t unused;
+    if (!PyArg_ParseTuple(args, "On", &face_object, &n)
+            || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = unused_vertices(faces.buf, kind == ARRAY_I32, faces.len / faces.itemsize / 3, n, &unused, &outside);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status)
+        return PyErr_NoMemory();
+    return Py_BuildValue("(LO)", (long long)unused, outside ? Py_True : Py_False);
+}
+
 static PyObject *core_row_groups(PyObject *self, PyObject *args)
 {
     PyObject *row_object, *labels_buffer, *first_buffer;
@@ -619,6 +638,8 @@ static PyMethodDef methods[] = {
     {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
+    {"unused_vertices", core_unused_vertices, METH_VARARGS,
+     "unused_vertices(faces, n) -> (vertices no face uses, whether an index is outside [0, n))"},
     {"row_groups", core_row_groups, METH_VARARGS, "row_groups(rows, columns) -> (labels, first, same, opposite)"},
     {"integrate", (PyCFunction)(void (*)(void))core_integrate, METH_VARARGS | METH_KEYWORDS,
      "integrate(vertices, faces, reference, scale_exp, radius, order, area, weights, threads, double_double) -> dict"},
