@@ -166,7 +166,7 @@ def _jacobi(a):
     """Eigenvalues (ascending), eigenvectors (columns) and a bound on the backward error of a symmetric 3×3.
 
     Cyclic Jacobi rotations (at most 32 sweeps; a 3×3 converges quadratically,
-    in 3 to 5), compiled (``massprops/core/src/principal.c``): only +, −, ×, ÷
+    in 3 to 5), compiled (``massprops/core/src/post.c``): only +, −, ×, ÷
     and sqrt, each correctly rounded, so the result is the same on every
     machine (LAPACK's differs in the last bits with the CPU's kernels).  The
     matrix is scaled by a power of two first (exact), so no square underflows
