@@ -41,7 +41,7 @@ else:
 
 setup(ext_modules=[
     Extension("massprops.core._core", sources=SOURCES, depends=HEADERS, extra_compile_args=COMPILE,
-              extra_link_args=LINK),
+              extra_link_args=LINK, libraries=[] if sys.platform == "win32" else ["m"]),
     Extension("massprops.core._intersect", ISECT_SOURCES, depends=ISECT_HEADERS, extra_compile_args=COMPILE,
               extra_link_args=LINK, libraries=[] if sys.platform == "win32" else ["m"]),
 ])

@@ -8,7 +8,10 @@ STL, half OBJ, written once under ``benchmarks/_data/batch/``.  Measured:
 - files/s of ``for f in files: trimesh.load(f).mass_properties``, and of
   the same loop spread over two worker processes;
 - per-file overhead of the batch machinery: wall time of the one-worker run
-  minus the summed per-file ``elapsed_s`` of its report, over the file count.
+  minus the summed per-file ``elapsed_s`` of its report, over the file count;
+- the processor time of each run (its own and its worker processes'), which
+  the other jobs on a shared machine change far less than the wall time: on
+  free cores, two workers take about half of it.
 
 Speed is measured, never asserted; the machine is shared, so take the ratios
 as indicative.
@@ -59,6 +62,13 @@ def corpus(count):
             write_binary(path, mesh.triangles) if path.endswith(".stl") else _write_obj(path, mesh)
         paths.append(path)
     return paths
+
+
+def _cpu():
+    """Processor seconds (user and system) of this process and of its children that have ended."""
+    import resource
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def _trimesh_loop(paths):
@@ -119,20 +129,29 @@ def run(quick: bool = False) -> str:
     count = 200 if quick else 2000
     paths = corpus(count)
     report = os.path.join(DATA, "report.csv")
+    import trimesh  # noqa: F401  (imported before the clocks start: the loop's time is its files')
+    cpu = [_cpu()]
     trimesh_s, trimesh_files = _trimesh_loop(paths)
+    cpu.append(_cpu())
     trimesh2_s = _trimesh_pool(paths, 2)
+    cpu.append(_cpu())
     wall1, batch_files, summary1, triangles = _batch(paths, 1, report)
+    cpu.append(_cpu())
     compute1 = sum(batch_files.values())
     wall2, _, summary2, _ = _batch(paths, 2, report)
+    cpu.append(_cpu())
     if summary1.failed or summary2.failed:
         return f"batch failed on {summary1.failed} files — check {report}"
     runs = {"trimesh loop": trimesh_s, "trimesh, 2 worker processes": trimesh2_s, "massprops batch, 1 worker": wall1,
             "massprops batch, 2 workers": wall2}
-    lines = [f"**batch** — {count} parts, 1k–10k triangles, binary STL + OBJ ({os.cpu_count()} cores)", "",
-             "| run | time (s) | files/s | vs trimesh loop | vs trimesh, 2 workers |", "| --- | ---: | ---: | ---: | ---: |"]
+    used = dict(zip(runs, (b - a for a, b in zip(cpu, cpu[1:]))))         # processor seconds of each run
+    lines = [f"**batch** — {count} parts, 1k–10k triangles, binary STL + OBJ ({os.cpu_count()} cores, load "
+             f"average {os.getloadavg()[0]:.1f} at the end)", "",
+             "| run | time (s) | files/s | vs trimesh loop | vs trimesh, 2 workers | processor s | vs trimesh loop |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for name, seconds in runs.items():
         lines.append(f"| {name} | {seconds:.2f} | {count / seconds:.0f} | {trimesh_s / seconds:.2f}× "
-                     f"| {trimesh2_s / seconds:.2f}× |")
+                     f"| {trimesh2_s / seconds:.2f}× | {used[name]:.2f} | {used['trimesh loop'] / used[name]:.2f}× |")
     lines += ["", f"Per-file batch overhead (1 worker, wall − Σ elapsed_s): "
                   f"{1e3 * (wall1 - compute1) / count:.2f} ms; per-file compute {1e3 * compute1 / count:.2f} ms; "
                   f"speedup 1 → 2 workers: {wall1 / wall2:.2f}×", "",

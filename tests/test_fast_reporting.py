@@ -1,6 +1,6 @@
 """The per-file steps after integration give exactly what their plain formulations give.
 
-- input resolution from the vertex columns and the bounding box against the
+- input resolution from the compiled bounding box and farthest vertex against the
   direct per-vertex formulas (``|x − c|`` over every vertex);
 - the report's JSON conversion and CSV writer against the general ones
   (recursive isinstance conversion, ``csv.DictWriter``).
@@ -18,7 +18,7 @@ from massprops import report
 from massprops.validation import solids
 from massprops import mass_properties
 from massprops.mesh.surface import TriangleMesh
-from massprops.model.resolution import _largest_squared_distance, coordinate_resolution, vertex_columns
+from massprops.model.resolution import _largest_squared_distance, coordinate_resolution, vertex_box
 
 seeds = st.integers(0, 2 ** 32 - 1)
 
@@ -36,13 +36,13 @@ def _random_points(seed):
 @given(seeds)
 def test_bounding_box_gives_the_per_vertex_extremes(seed):
     points, center = _random_points(seed)
-    columns, low, high = vertex_columns(points)
-    assert columns.tolist() == points.T.tolist()
-    assert low.tolist() == points.min(axis=0).tolist() and high.tolist() == points.max(axis=0).tolist()
+    low, high = vertex_box(points)
+    assert list(low) == points.min(axis=0).tolist() and list(high) == points.max(axis=0).tolist()
+    assert vertex_box(np.asfortranarray(points)) == (low, high)          # any layout of the rows
     # rounding is monotone: the largest rounded |x − c| sits at a face of the box, bit for bit
-    farthest = max(max(h - c, c - lo) for lo, h, c in zip(low.tolist(), high.tolist(), center.tolist()))
+    farthest = max(max(h - c, c - lo) for lo, h, c in zip(low, high, center.tolist()))
     assert farthest == float(np.abs(points - center).max())
-    assert max(abs(float(high.max())), abs(float(low.min()))) == float(np.abs(points).max())
+    assert max(abs(max(high)), abs(min(low))) == float(np.abs(points).max())
 
 
 @settings(max_examples=80, deadline=None)
@@ -52,22 +52,9 @@ def test_largest_squared_distance_is_the_rounded_per_vertex_maximum(seed):
     _check_largest_squared_distance(points, center)
 
 
-@settings(max_examples=20, deadline=None)
-@given(seeds, st.integers(1, 64))
-def test_largest_squared_distance_is_the_same_in_blocks(seed, block):
-    import massprops.model.resolution as resolution
-    points, center = _random_points(seed)
-    original = resolution._BLOCK
-    resolution._BLOCK = block          # many small blocks, the last one partial
-    try:
-        _check_largest_squared_distance(points, center)
-    finally:
-        resolution._BLOCK = original
-
-
 def _check_largest_squared_distance(points, center):
     expected = max((dx * dx + dz * dz) + dy * dy for dx, dy, dz in (points - center).tolist())
-    got = _largest_squared_distance(np.ascontiguousarray(points.T), center)
+    got = _largest_squared_distance(points, center)
     assert got == expected
     exact = max(sum((Fraction(x) - Fraction(c)) ** 2 for x, c in zip(row, center.tolist())) for row in points.tolist())
     assert abs(Fraction(got) - exact) <= exact * Fraction(6, 2 ** 53)        # five roundings at most

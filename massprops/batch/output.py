@@ -26,9 +26,8 @@ __all__ = ["record", "state_path", "file_stat", "plan", "ReportWriter", "is_erro
 
 
 def csv_line(row):
-    """One CSV line (with newline) for a row dict keyed by ``report.CSV_COLUMNS``."""
-    # to_csv is the one writer of the SPEC's columns; drop its header line
-    return report.to_csv([row]).split("\n", 1)[1]
+    """One CSV line (with newline) for a row dict keyed by ``report.CSV_COLUMNS`` (the one writer's line)."""
+    return report.tables.csv_line(row)
 
 
 def record(obj, status, message, output_format):

@@ -155,7 +155,8 @@ def run_one(path, settings=Settings(), output_format="csv"):
                                  max_unpacked=settings.max_unpacked, max_instances=settings.max_instances,
                                  max_depth=settings.max_depth, self_intersection=settings.self_intersection,
                                  only=settings.only)
-        obj = report.result_dict(result, only=settings.only)
+        # a CSV row reads a few of the object's keys: the brief object has them, with the same values
+        obj = report.result_dict(result, only=settings.only, brief=output_format == "csv")
         return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc, settings.option_style)

@@ -38,18 +38,25 @@ _LOG2_BOX = (-1000.0, 1023.0)      # log2 of the box volume, mesh units³
 _LOG2_SCALED_BOX = -900.0           # log2 of the box volume in the frame (extents over 2**scale_exp)
 
 
+def _log_box(extents):
+    """log2 of the box volume (the sum of the extents' logs: no product to overflow or underflow)."""
+    return sum(math.log2(e) for e in extents)
+
+
 def _box_text(extents):
-    """``(log2 of the box volume, "X by Y by Z", the volume as text such as "1e+924")``."""
-    log_box = sum(math.log2(e) for e in extents)
-    decimal = log_box * math.log10(2)
-    return log_box, " by ".join(f"{e:.3g}" for e in extents), f"{10 ** (decimal % 1):.2g}e{math.floor(decimal):+d}"
+    """``("X by Y by Z", the volume as text such as "1e+924")``, for a refusal's message."""
+    decimal = _log_box(extents) * math.log10(2)
+    return " by ".join(f"{e:.3g}" for e in extents), f"{10 ** (decimal % 1):.2g}e{math.floor(decimal):+d}"
 
 
 def check_box_range(extents):
     """Refuse a box (its three extents, mesh units) whose volume in mesh units³ is outside 2**-1000 to 2**1023."""
     if not all(0 < e < math.inf for e in extents):
         return                                  # flat, or non-finite (refused where found)
-    log_box, shown, volume = _box_text(extents)
+    log_box = _log_box(extents)
+    if _LOG2_BOX[0] <= log_box <= _LOG2_BOX[1]:
+        return                                  # every part but a refused one: no text to format
+    shown, volume = _box_text(extents)
     if log_box < _LOG2_BOX[0]:
         raise MeshGeometryError(f"the part is too small for double precision (its volume would underflow): its "
                                 f"box is {shown} mesh units, a volume of at most {volume}, below 1e-301 (2**-1000)",
@@ -64,8 +71,8 @@ def _check_scaled_range(extents, scale_exp):
     """Refuse a part whose box, in the frame, is too small a fraction of its largest extent cubed."""
     if not all(e > 0 for e in extents):
         return
-    log_box, shown, _ = _box_text(extents)
-    if log_box - 3 * scale_exp < _LOG2_SCALED_BOX:
+    if _log_box(extents) - 3 * scale_exp < _LOG2_SCALED_BOX:
+        shown, _ = _box_text(extents)
         raise MeshGeometryError(f"the part's extents span too many orders of magnitude for double precision: its "
                                 f"box is {shown} mesh units, a volume below 2**-900 of its largest extent cubed",
                                 fix="check the file for a stray vertex far from the part; a part this thin cannot "

@@ -32,4 +32,4 @@ def write(path, vertices, faces, comment=""):
         f.writelines(lines)
 
 
-register_format("obj", [".obj"], read)
+register_format("obj", [".obj"], read, unpacks=False)

@@ -17,14 +17,19 @@ __all__ = ["read", "register_format", "reader_for", "check_mesh_file", "EXTENSIO
 
 _READERS = {}
 _GRAPH_READERS = set()
+_PLAIN_READERS = set()           # readers that never unpack an archive (register_format's ``unpacks=False``)
 
 
-def register_format(name, extensions, reader, *, graph=False):
+def register_format(name, extensions, reader, *, graph=False, unpacks=True):
     """Register ``reader(path) -> mesh`` for file names ending in any of ``extensions``.
 
     With ``graph``, the reader walks an instance graph and takes the keywords
     ``max_instances`` and ``max_depth`` (positive integers, see
-    :func:`massprops.io.inputs.graph_limits`).
+    :func:`massprops.io.inputs.graph_limits`).  ``unpacks=False`` says the
+    reader parses the file's bytes as they are and never unpacks a zip
+    container (the compiled STL and OBJ parsers: a zip under their name is
+    refused as malformed), so the archive check, which opens the file, is
+    left out for it.
     """
     for ext in extensions:
         _READERS[ext.lower()] = (name, reader)
@@ -32,6 +37,10 @@ def register_format(name, extensions, reader, *, graph=False):
             _GRAPH_READERS.add(reader)
         else:
             _GRAPH_READERS.discard(reader)
+        if unpacks:
+            _PLAIN_READERS.discard(reader)
+        else:
+            _PLAIN_READERS.add(reader)
 
 
 def _extension(path):
@@ -92,7 +101,8 @@ def check_mesh_file(path, *, max_unpacked=None):
     found = reader_for(path)
     # Any format: a mesh file is written, never seeked past (a 10 GB file of holes would be read whole).
     check_no_holes(path, info)
-    check_archive(path, info, max_unpacked)
+    if found[1] not in _PLAIN_READERS:
+        check_archive(path, info, max_unpacked)
     return found
 
 

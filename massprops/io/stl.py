@@ -36,4 +36,4 @@ def write_binary(path, triangles, header=b"massprops"):
         records.tofile(f)
 
 
-register_format("stl", [".stl"], read)
+register_format("stl", [".stl"], read, unpacks=False)

@@ -37,6 +37,7 @@ import numpy as np
 from ..model.records import record
 from ..model.errors import MeshGeometryError
 from ..core import _core, edge_summary, face_groups, reference_frame, shell_determinants
+from ..core.arrays import as_indices
 from ..core import shells as count_shells
 
 __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
@@ -94,12 +95,13 @@ def without_unused_vertices(mesh):
     """``mesh`` without the vertices no face uses (non-finite ones noted), or ``mesh`` itself."""
     n = mesh.vertices.shape[0]
     faces = mesh.faces
-    if faces.size == 0 or faces.min() < 0 or faces.max() >= n:
+    if faces.size == 0:
+        return mesh
+    unused, outside = _core.unused_vertices(as_indices(faces), n)      # one compiled pass, no arrays
+    if outside or not unused:
         return mesh
     used = np.zeros(n, dtype=bool)
     used[faces.ravel()] = True
-    if used.all():
-        return mesh
     notes = mesh.notes
     bad = int(np.count_nonzero(~used & ~np.isfinite(mesh.vertices).all(axis=1)))
     if bad:

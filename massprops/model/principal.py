@@ -18,6 +18,7 @@ from functools import lru_cache
 import numpy as np
 
 from .records import record
+from ..core import _core
 from ..core.rounding import U as _U
 
 __all__ = ["Principal", "principal", "axis_angle_bounds", "physical_checks", "DEFAULT_RTOL", "AXIS_ANGLE_TOLERANCE"]
@@ -161,78 +162,28 @@ def _subspace_axes(basis):
     return chosen
 
 
-# Cyclic Jacobi: at most this many sweeps (a 3×3 converges quadratically, in 3 to 5).
-_MAX_SWEEPS = 32
-# Backward error of one rotation applied in floating point, in units of u·‖J‖_F:
-# forming c and s (a few roundings, so Ĝ is orthogonal to a few u) and the two-sided
-# update (each new element from 2 products and 2 sums), generously rounded up.
-_ROTATION_ERROR = 32.0
-
-
 def _jacobi(a):
     """Eigenvalues (ascending), eigenvectors (columns) and a bound on the backward error of a symmetric 3×3.
 
-    Cyclic Jacobi rotations in Python floats: only +, −, ×, ÷ and sqrt, each
-    correctly rounded, so the result is the same on every machine (LAPACK's
-    differs in the last bits with the CPU's kernels).  The matrix is scaled
-    by a power of two first (exact), so no square underflows or overflows.
+    Cyclic Jacobi rotations (at most 32 sweeps; a 3×3 converges quadratically,
+    in 3 to 5), compiled (``massprops/core/src/post.c``): only +, −, ×, ÷
+    and sqrt, each correctly rounded, so the result is the same on every
+    machine (LAPACK's differs in the last bits with the CPU's kernels).  The
+    matrix is scaled by a power of two first (exact), so no square underflows
+    or overflows.  A matrix with a non-finite element, or zero, gives its
+    diagonal, the identity and a bound of 0.
 
     Returns
     -------
     moments : list of 3 floats
     vectors : list of 3 rows of 3 floats; column k is the unit axis of moments[k]
     backward_error : float
-        ‖E‖₂ bound such that the moments are exactly those of ``a + E``:
-        the rounding of every rotation and the off-diagonal entries dropped.
+        ‖E‖₂ bound such that the moments are exactly those of ``a + E``: the
+        rounding of every rotation (32 u‖J‖_F each: forming c and s and the
+        two-sided update) and the off-diagonal entries dropped (below a quarter
+        ulp of both diagonal entries, or u² of the norm) or left.
     """
-    size = max(abs(x) for row in a for x in row)
-    if size == 0.0 or not math.isfinite(size):
-        return [a[0][0], a[1][1], a[2][2]], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], 0.0
-    shift = -math.frexp(size)[1]
-    a = [[math.ldexp(x, shift) for x in row] for row in a]
-    norm = math.sqrt(sum(x * x for row in a for x in row))
-    v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-    rotations, dropped = 0, 0.0
-    for _ in range(_MAX_SWEEPS):
-        if a[0][1] == 0.0 and a[0][2] == 0.0 and a[1][2] == 0.0:
-            break
-        for p, q in ((0, 1), (0, 2), (1, 2)):
-            apq = a[p][q]
-            if apq == 0.0:
-                continue
-            app, aqq = a[p][p], a[q][q]
-            if abs(apq) <= 0.25 * _U * min(abs(app), abs(aqq)) or abs(apq) <= _U * _U * norm:
-                # Below a quarter ulp of both diagonal entries (or u² of the norm): dropping it is part of the
-                # backward error, counted below.
-                dropped += abs(apq)
-                a[p][q] = a[q][p] = 0.0
-                continue
-            theta = (aqq - app) / (2.0 * apq)
-            if abs(theta) > 2.0 ** 500:
-                t = 0.5 / theta
-            else:
-                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-                t = t if theta >= 0 else -t
-            c = 1.0 / math.sqrt(t * t + 1.0)
-            s = t * c
-            tau = s / (1.0 + c)
-            a[p][p], a[q][q] = app - t * apq, aqq + t * apq
-            a[p][q] = a[q][p] = 0.0
-            r = 3 - p - q
-            arp, arq = a[r][p], a[r][q]
-            a[r][p] = a[p][r] = arp - s * (arq + tau * arp)
-            a[r][q] = a[q][r] = arq + s * (arp - tau * arq)
-            for row in v:
-                vrp, vrq = row[p], row[q]
-                row[p] = vrp - s * (vrq + tau * vrp)
-                row[q] = vrq + s * (vrp - tau * vrq)
-            rotations += 1
-    remainder = math.sqrt(2.0 * (a[0][1] ** 2 + a[0][2] ** 2 + a[1][2] ** 2))
-    order = sorted(range(3), key=lambda k: a[k][k])
-    moments = [math.ldexp(a[k][k], -shift) for k in order]
-    vectors = [[row[k] for k in order] for row in v]
-    bound = (_ROTATION_ERROR * rotations * _U * norm + 2.0 * dropped + remainder) * (1.0 + 4.0 * _U)
-    return moments, vectors, math.ldexp(bound, -shift)
+    return _core.jacobi(*a)
 
 
 def _symmetric(inertia):

@@ -29,30 +29,22 @@ import numpy as np
 
 from .principal import axis_angle_bounds, physical_checks
 from .properties import unit_length
-from .records import tuple_record
+from ..core import _core
+from ..core.arrays import as_points
 
-__all__ = ["coordinate_resolution", "VertexColumns", "vertex_columns", "with_input_resolution",
-           "resolution_warning", "annotate"]
+__all__ = ["coordinate_resolution", "vertex_box", "with_input_resolution", "resolution_warning", "annotate"]
 
 # The storage step (ulp) above which a warning says the input's precision limits
 # the result, relative to the part's largest extent.
 WARN_RELATIVE_STEP = 1e-5
-_BLOCK = 1 << 16                  # vertices per pass of the distance bound
 
 
-@tuple_record
-class VertexColumns:
-    """A mesh's vertices as three contiguous columns, shape (3, n), with each axis's lowest and highest value."""
+def vertex_box(vertices):
+    """``(low, high)``: each axis's lowest and highest coordinate of ``vertices`` (n ≥ 1, 3; finite), as tuples.
 
-    columns: np.ndarray
-    low: np.ndarray
-    high: np.ndarray
-
-
-def vertex_columns(vertices):
-    """:class:`VertexColumns` of ``vertices`` (n, 3): one copy, then every pass runs along contiguous rows."""
-    columns = np.ascontiguousarray(vertices.T)       # reducing (n, 3) along axis 0 is several times slower
-    return VertexColumns(columns, columns.min(axis=1), columns.max(axis=1))
+    One compiled pass over the rows (no copy), the values numpy's ``min`` and ``max`` along axis 0 give.
+    """
+    return _core.bounding_box(as_points(vertices))
 
 
 @lru_cache(maxsize=None)
@@ -81,19 +73,14 @@ def coordinate_resolution(vertices, source_dtype):
     return _half_ulp(float(np.abs(vertices).max()) if vertices.size else 0.0, source_dtype)
 
 
-def _largest_squared_distance(columns, center):
-    """``max |x − c|²`` over the vertices, each ``(dx² + dz²) + dy²`` with every operation rounded.
+def _largest_squared_distance(vertices, center):
+    """``max |x − c|²`` over the vertices (n, 3), each ``(dx² + dz²) + dy²`` with every operation rounded.
 
     That order is the one ``numpy.einsum("ij,ij->i", d, d)`` used on the rows
-    ``d = x − c`` before (its paired accumulation), so the values are unchanged.
+    ``d = x − c`` before (its paired accumulation), so the values are unchanged;
+    one compiled pass over the rows (``massprops/core/src/post.c``).
     """
-    center = np.asarray(center, dtype=float)[:, None]
-    largest = 0.0
-    for start in range(0, columns.shape[1], _BLOCK):     # blocks: no full-size temporaries on huge meshes
-        offset = columns[:, start:start + _BLOCK] - center
-        offset *= offset
-        largest = max(largest, float(((offset[0] + offset[2]) + offset[1]).max()))
-    return largest
+    return _core.largest_squared_distance(as_points(vertices), tuple(center))
 
 
 def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
@@ -112,13 +99,13 @@ def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
     mass_given : bool
         The total mass was given (density derived), so mass does not move and
         the density does.
-    vertices : VertexColumns, optional
-        :func:`vertex_columns` of ``mesh.vertices``, if already made.
+    vertices : (low, high), optional
+        :func:`vertex_box` of ``mesh.vertices``, if already found.
     """
     length = unit_length(props.unit)
-    columns, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
+    low, high = vertices if vertices is not None else vertex_box(mesh.vertices)
     # max |x| is the larger of |min| and |max|: exactly coordinate_resolution's input.
-    delta = _half_ulp(max(abs(float(high.max())), abs(float(low.min()))), mesh.source_dtype)
+    delta = _half_ulp(max(abs(max(high)), abs(min(low))), mesh.source_dtype)
     volume = props.volume / length ** 3
     swept = math.sqrt(3.0) * delta * props.surface_area / length ** 2
     resolution = {"coordinates": delta * length, "volume": swept * length ** 3,
@@ -127,10 +114,10 @@ def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
               else [c / length for c in np.asarray(props.center_of_mass, dtype=float).tolist()])
     if props.center_of_mass is not None:
         # Rounding is monotone, so max |x − c| over the vertices is at a face of the bounding box, bit for bit.
-        farthest = max(max(h - c, c - l) for l, h, c in zip(low.tolist(), high.tolist(), center))
+        farthest = max(max(h - c, c - l) for l, h, c in zip(low, high, center))
         resolution["center_of_mass"] = swept * farthest / volume * length
     if props.inertia_com is not None:
-        inertia = props.density * swept * _largest_squared_distance(columns, center) * length ** 5
+        inertia = props.density * swept * _largest_squared_distance(mesh.vertices, center) * length ** 5
         if mass_given:
             # J = (M / V) C: the derived density moves with the volume.
             inertia += float(np.linalg.norm(props.inertia_com, 2)) * swept / volume
@@ -146,11 +133,11 @@ def with_input_resolution(props, mesh, *, mass_given=False, vertices=None):
 def resolution_warning(props, mesh, *, vertices=None):
     """A warning when the coordinates' storage step is coarse against the part's size, else None.
 
-    ``vertices``: :func:`vertex_columns` of ``mesh.vertices``, if already made.
+    ``vertices``: :func:`vertex_box` of ``mesh.vertices``, if already found.
     """
-    _, low, high = vertices if vertices is not None else vertex_columns(mesh.vertices)
+    low, high = vertices if vertices is not None else vertex_box(mesh.vertices)
     step = 2.0 * props.error.input_resolution.get("coordinates", 0.0)
-    extent = float((high - low).max()) * unit_length(props.unit)
+    extent = max(h - l for l, h in zip(low, high)) * unit_length(props.unit)
     if not step or not extent or step / extent <= WARN_RELATIVE_STEP:
         return None
     dtype = np.dtype(mesh.source_dtype).name
@@ -173,7 +160,7 @@ def annotate(props, mesh, *, mass_given=False):
         :func:`massprops.model.principal.physical_checks`).
     warnings : list of str
     """
-    vertices = vertex_columns(mesh.vertices)
+    vertices = vertex_box(mesh.vertices)
     props = with_input_resolution(props, mesh, mass_given=mass_given, vertices=vertices)
     warnings = [w for w in (resolution_warning(props, mesh, vertices=vertices),) if w]
     checks = {}

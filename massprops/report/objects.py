@@ -38,7 +38,7 @@ def plain(value):
 _ERROR_OF = {"principal_axes_rad": "principal_axes"}
 
 
-def result_dict(result, *, omega=None, about=(), only=None, extra=None):
+def result_dict(result, *, omega=None, about=(), only=None, extra=None, brief=False):
     """The SPEC's JSON object for one :class:`massprops.result.Result`.
 
     Parameters
@@ -50,12 +50,16 @@ def result_dict(result, *, omega=None, about=(), only=None, extra=None):
         Global points to report the inertia about (``inertia_about``).
     only : collection of str, optional
         Restrict the quantities reported (see ``massprops.compute.QUANTITIES``).
+    brief : bool
+        Only the keys a CSV row reads (:func:`massprops.report.tables.csv_row`), with the same values: no
+        global frames, degenerate groups, pose, checks or warnings, and of the error only the volume's and
+        the inertia's bounds (a batch's CSV report builds one such object per file).
     """
     with np.errstate(over="ignore", invalid="ignore"):        # overflow is said by finite_or_null
-        return _result_dict(result, omega, about, only, extra)
+        return _result_dict(result, omega, about, only, extra, brief)
 
 
-def _result_dict(result, omega, about, only, extra):
+def _result_dict(result, omega, about, only, extra, brief=False):
     p = result.properties
     want = (lambda q: True) if not only else (lambda q: q in only)
     out = {"file": result.file, "triangles": result.triangles}
@@ -70,10 +74,12 @@ def _result_dict(result, omega, about, only, extra):
         out["unit"] = "SI (m, kg, kg·m²), mesh unit " + p.unit
     if p.center_of_mass is not None and (want("center_of_mass") or want("inertia") or want("principal")):
         out["center_of_mass"] = p.center_of_mass
-        out["center_of_mass_global"] = p.center_of_mass_global
+        if not brief:
+            out["center_of_mass_global"] = p.center_of_mass_global
     if p.inertia_com is not None:
         if want("inertia"):
             out["inertia_com"] = p.inertia_com
+        if want("inertia") and not brief:
             out["inertia_com_global"] = p.inertia_com_global
             out["inertia_origin"] = p.inertia_origin
             if about:
@@ -82,7 +88,15 @@ def _result_dict(result, omega, about, only, extra):
             pr = p.principal
             out["principal_moments"] = pr.moments
             out["principal_axes"] = pr.axes
-            out["degenerate"] = [list(g) for g in pr.degenerate]
+            if not brief:
+                out["degenerate"] = [list(g) for g in pr.degenerate]
+    if brief:
+        error = {"volume": p.error.volume}
+        if "inertia_com" in out:
+            error["inertia_com"] = p.error.inertia_com
+        out["error"] = error
+        out["elapsed_s"] = result.elapsed_s
+        return finite_or_null(plain(out))
     if omega is not None:
         local, world = p.angular_momentum(omega)
         out["omega"] = list(map(float, omega))

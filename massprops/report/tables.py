@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["CSV_COLUMNS", "csv_row", "to_csv"]
+__all__ = ["CSV_COLUMNS", "csv_row", "csv_line", "to_csv"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "a1x,a1y,a1z,a2x,a2y,a2z,a3x,a3y,a3z,err_volume,err_inertia,elapsed_s").split(",")
@@ -20,25 +20,33 @@ def _cell(value):
     return "" if value is None else repr(value)
 
 
+def _cells(values):
+    return ["" if v is None else repr(v) for v in values]
+
+
 def csv_row(obj, *, status="ok", message=""):
     """One batch CSV row (a dict keyed by :data:`CSV_COLUMNS`) from a result object."""
     row = dict.fromkeys(CSV_COLUMNS, "")
-    row.update(file=obj["file"], status=status, message=message)
+    row["file"], row["status"], row["message"] = obj["file"], status, message
     if status != "ok":
         return row
-    row.update(triangles=obj["triangles"], err_volume=_cell(obj["error"]["volume"]),
-               elapsed_s=_cell(obj["elapsed_s"]))
-    row.update((key, _cell(obj[key])) for key in ("volume", "mass") if key in obj)
+    error = obj["error"]
+    row["triangles"], row["err_volume"], row["elapsed_s"] = obj["triangles"], _cell(error["volume"]), \
+        _cell(obj["elapsed_s"])
+    if "volume" in obj:
+        row["volume"] = _cell(obj["volume"])
+    if "mass" in obj:
+        row["mass"] = _cell(obj["mass"])
     if "center_of_mass" in obj:
-        row.update(zip(("cx", "cy", "cz"), map(_cell, obj["center_of_mass"])))
+        row["cx"], row["cy"], row["cz"] = _cells(obj["center_of_mass"])
     if "inertia_com" in obj:
-        j = obj["inertia_com"]
-        row.update(Ixx=_cell(j[0][0]), Iyy=_cell(j[1][1]), Izz=_cell(j[2][2]), Ixy=_cell(j[0][1]),
-                   Ixz=_cell(j[0][2]), Iyz=_cell(j[1][2]), err_inertia=_cell(obj["error"]["inertia_com"]))
+        (xx, xy, xz), (_, yy, yz), (_, _, zz) = obj["inertia_com"]
+        row["Ixx"], row["Iyy"], row["Izz"], row["Ixy"], row["Ixz"], row["Iyz"], row["err_inertia"] = _cells(
+            (xx, yy, zz, xy, xz, yz, error["inertia_com"]))
     if "principal_moments" in obj:
-        row.update(zip(("I1", "I2", "I3"), map(_cell, obj["principal_moments"])))
-        for k, axis in enumerate(obj["principal_axes"]):
-            row.update(zip((f"a{k + 1}x", f"a{k + 1}y", f"a{k + 1}z"), map(_cell, axis)))
+        row["I1"], row["I2"], row["I3"] = _cells(obj["principal_moments"])
+        (row["a1x"], row["a1y"], row["a1z"]), (row["a2x"], row["a2y"], row["a2z"]), \
+            (row["a3x"], row["a3y"], row["a3z"]) = map(_cells, obj["principal_axes"])
     return row
 
 
@@ -54,15 +62,21 @@ def to_csv(rows, columns=None):
         columns, column_set, header = CSV_COLUMNS, _COLUMN_SET, _CSV_HEADER
     else:
         column_set, header = frozenset(columns), ",".join(map(_csv_field, columns)) + "\n"
-    lines = [header]
-    for row in rows:
-        extra = row.keys() - column_set
-        if extra:
-            raise ValueError(f"dict contains fields not in the CSV columns: {', '.join(map(repr, extra))}")
-        values = [row.get(key, "") for key in columns]
-        line = _plain_csv_line(values)
-        lines.append(line if line is not None else ",".join(map(_csv_field, values)) + "\n")
-    return "".join(lines)
+    return "".join([header, *(_line(row, columns, column_set) for row in rows)])
+
+
+def csv_line(row):
+    """The CSV line (with its line feed) of one row made by :func:`csv_row`, as :func:`to_csv` writes it."""
+    return _line(row, CSV_COLUMNS, _COLUMN_SET)
+
+
+def _line(row, columns, column_set):
+    extra = row.keys() - column_set
+    if extra:
+        raise ValueError(f"dict contains fields not in the CSV columns: {', '.join(map(repr, extra))}")
+    values = [row.get(key, "") for key in columns]
+    line = _plain_csv_line(values)
+    return line if line is not None else ",".join(map(_csv_field, values)) + "\n"
 
 
 _NEEDS_QUOTES = re.compile(r'[,"\r\n]')

@@ -118,4 +118,10 @@ int open_regular(const char *path, int64_t *size, Failure *failure);
 /* Read exactly `bytes` at `offset`; -1 and a failure if the file ends first (it shrank). */
 int read_exactly(int fd, char *buffer, size_t bytes, int64_t offset, Failure *failure);
 
+/* Cyclic Jacobi on a symmetric 3x3 (row-major): ascending moments, vectors (column k the axis of moments[k])
+ * and the backward error bound, the same bits as the Python formulation (post.c). */
+void jacobi3(const double a[9], double moments[3], double vectors[9], double *bound);
+/* max over the vertices of |x - centre|^2, rounded as (dx*dx + dz*dz) + dy*dy (post.c). */
+double largest_squared_distance(const double *vertices, int64_t n, const double centre[3]);
+
 #endif

@@ -273,20 +273,21 @@ int shell_determinants(const KernelInput *in, const int64_t *labels, int64_t she
 
 void bounding_box(const double *vertices, int64_t n, double low[3], double high[3])
 {
+    /* in locals (the outputs might alias the input, so the compiler would store them at every step); a NaN
+     * never replaces a value, and of equal values the first stays */
+    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
     int64_t v;
-    int i;
-    for (i = 0; i < 3; i++) {
-        low[i] = HUGE_VAL;
-        high[i] = -HUGE_VAL;
+    for (v = 0; v < n; v++) {
+        const double *p = vertices + 3 * v;
+        lx = p[0] < lx ? p[0] : lx;
+        ly = p[1] < ly ? p[1] : ly;
+        lz = p[2] < lz ? p[2] : lz;
+        hx = p[0] > hx ? p[0] : hx;
+        hy = p[1] > hy ? p[1] : hy;
+        hz = p[2] > hz ? p[2] : hz;
     }
-    for (v = 0; v < n; v++)
-        for (i = 0; i < 3; i++) {
-            double x = vertices[3 * v + i];
-            if (x < low[i])
-                low[i] = x;
-            if (x > high[i])
-                high[i] = x;
-        }
+    low[0] = lx, low[1] = ly, low[2] = lz;
+    high[0] = hx, high[1] = hy, high[2] = hz;
 }
 
 void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])

@@ -17,6 +17,9 @@
 
 #include <stdlib.h>
 #include <string.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 static PyObject *ParseError;
 
@@ -330,6 +333,25 @@ static PyObject *core_shells(PyObject *self, PyObject *args)
     return Py_BuildValue("(NL)", buffer_wrap(labels, 'q', 8, m, 0), (long long)count);
 }
 
+static PyObject *core_unused_vertices(PyObject *self, PyObject *args)
+{
+    PyObject *face_object;
+    Py_buffer faces;
+    Py_ssize_t n;
+    int kind, outside, status;
+    int64_t unused;
+    if (!PyArg_ParseTuple(args, "On", &face_object, &n)
+            || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = unused_vertices(faces.buf, kind == ARRAY_I32, faces.len / faces.itemsize / 3, n, &unused, &outside);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status)
+        return PyErr_NoMemory();
+    return Py_BuildValue("(LO)", (long long)unused, outside ? Py_True : Py_False);
+}
+
 static PyObject *core_row_groups(PyObject *self, PyObject *args)
 {
     PyObject *row_object, *labels_buffer, *first_buffer;
@@ -588,6 +610,31 @@ static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
     return Py_BuildValue("(NN)", scaled, moved);
 }
 
+static PyObject *core_largest_squared_distance(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    double centre[3], largest;
+    if (!PyArg_ParseTuple(args, "O(ddd)", &object, &centre[0], &centre[1], &centre[2])
+            || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    largest = largest_squared_distance(view.buf, view.len / 24, centre);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return PyFloat_FromDouble(largest);
+}
+
+static PyObject *core_jacobi(PyObject *self, PyObject *args)
+{
+    double a[9], moments[3], vectors[9], bound;
+    if (!PyArg_ParseTuple(args, "(ddd)(ddd)(ddd)", &a[0], &a[1], &a[2], &a[3], &a[4], &a[5], &a[6], &a[7], &a[8]))
+        return NULL;
+    jacobi3(a, moments, vectors, &bound);
+    return Py_BuildValue("[ddd][[ddd][ddd][ddd]]d", moments[0], moments[1], moments[2], vectors[0], vectors[1],
+                         vectors[2], vectors[3], vectors[4], vectors[5], vectors[6], vectors[7], vectors[8], bound);
+}
+
 static PyMethodDef methods[] = {
     {"read_stl", core_read_stl, METH_VARARGS, "read_stl(path, threads) -> (vertices, faces, binary)"},
     {"read_obj", core_read_obj, METH_VARARGS, "read_obj(path, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
@@ -595,6 +642,8 @@ static PyMethodDef methods[] = {
     {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
+    {"unused_vertices", core_unused_vertices, METH_VARARGS,
+     "unused_vertices(faces, n) -> (vertices no face uses, whether an index is outside [0, n))"},
     {"row_groups", core_row_groups, METH_VARARGS, "row_groups(rows, columns) -> (labels, first, same, opposite)"},
     {"integrate", (PyCFunction)(void (*)(void))core_integrate, METH_VARARGS | METH_KEYWORDS,
      "integrate(vertices, faces, reference, scale_exp, radius, order, area, weights, threads, double_double) -> dict"},
@@ -606,9 +655,31 @@ static PyMethodDef methods[] = {
     {"shift_is_exact", core_shift_is_exact, METH_VARARGS, "shift_is_exact(vertices, centre) -> 3 bools"},
     {"scale_snapped", core_scale_snapped, METH_VARARGS,
      "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
+    {"largest_squared_distance", core_largest_squared_distance, METH_VARARGS,
+     "largest_squared_distance(vertices, centre) -> max of (dx*dx + dz*dz) + dy*dy over the vertices"},
+    {"jacobi", core_jacobi, METH_VARARGS,
+     "jacobi(rows) -> (moments ascending, vectors as rows of columns, backward error) of a symmetric 3x3"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_core", "The compiled core of massprops.", -1, methods};
+
+/* glibc's allocator in the state it reaches by itself once a large block has been freed, from the start:
+ * blocks below 32 MiB come from the heap, and up to 64 MiB free at its top is kept for the next call instead
+ * of being returned to the kernel.  Otherwise a process that has not yet freed a large block (whether it has
+ * is an accident of what ran before: a file opened with a large buffer, a big array) returns the heap's top
+ * after every part and faults its pages in again at the next one, zeroed: a fifth of the whole path of a
+ * 10k-face part, and about 30 page faults per part of a batch.  Larger blocks are mapped and unmapped as
+ * before (glibc's dynamic threshold stops at 32 MiB too).  MALLOC_MMAP_THRESHOLD_, MALLOC_TRIM_THRESHOLD_ or
+ * MALLOC_TOP_PAD_ in the environment leave the allocator as the user set it. */
+static void steady_allocator(void)
+{
+#if defined(__GLIBC__) && defined(M_MMAP_THRESHOLD) && defined(M_TRIM_THRESHOLD)
+    if (!getenv("MALLOC_MMAP_THRESHOLD_") && !getenv("MALLOC_TRIM_THRESHOLD_") && !getenv("MALLOC_TOP_PAD_")) {
+        mallopt(M_MMAP_THRESHOLD, 32 << 20);
+        mallopt(M_TRIM_THRESHOLD, 64 << 20);
+    }
+#endif
+}
 
 PyMODINIT_FUNC PyInit__core(void)
 {
@@ -619,6 +690,7 @@ PyMODINIT_FUNC PyInit__core(void)
     if (!m)
         return NULL;
     numbers_init();
+    steady_allocator();
     ParseError = PyErr_NewExceptionWithDoc("massprops.core._core.ParseError",
                                            "A malformed mesh file: args are (message, fix).", PyExc_ValueError, NULL);
     if (!ParseError || PyModule_AddObject(m, "ParseError", ParseError) != 0) {

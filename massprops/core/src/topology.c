@@ -511,3 +511,29 @@ int row_groups(const void *rows, int rows32, int columns, int64_t m, int64_t *la
     *groups = k;
     return 0;
 }
+
+/* How many of the n vertices no face uses (*unused), or *outside = 1 when an index is not in [0, n) (then
+ * *unused is not counted).  -1 when memory ran out. */
+int unused_vertices(const void *faces, int faces32, int64_t m, int64_t n, int64_t *unused, int *outside)
+{
+    unsigned char *used = calloc((size_t)(n > 0 ? n : 1), 1);
+    int64_t k, count = 0;
+    *unused = 0;
+    *outside = 0;
+    if (!used)
+        return -1;
+    for (k = 0; k < 3 * m; k++) {
+        int64_t v = face_index(faces, faces32, k);
+        if (v < 0 || v >= n) {
+            *outside = 1;
+            free(used);
+            return 0;
+        }
+        used[v] = 1;
+    }
+    for (k = 0; k < n; k++)
+        count += used[k];
+    free(used);
+    *unused = n - count;
+    return 0;
+}

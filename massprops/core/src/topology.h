@@ -26,6 +26,8 @@ typedef struct {
     int32_t *balance;          /* uses from lower to higher minus uses back */
 } EdgeArrays;
 
+/* The vertices no face uses, or an index outside [0, n); -1 when memory ran out. */
+int unused_vertices(const void *faces, int faces32, int64_t m, int64_t n, int64_t *unused, int *outside);
 int check_indices(const void *faces, int faces32, int64_t m, int64_t n, Failure *failure);
 int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
                  EdgeArrays *arrays, Failure *failure);
