@@ -130,6 +130,12 @@ static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t 
     }
 }
 
+/* The side of the finest cells (grid.c): from the extents of GRID_SAMPLES faces (or all, when
+ * fewer), sample s being face grid_sample(s, n, samples) in the order of the n faces. */
+#define GRID_SAMPLES 4096
+static inline int64_t grid_sample(int s, int64_t n, int samples) { return (int64_t)((double)s * n / samples); }
+double grid_base(double *extent, int samples, double whole);
+
 uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k);
 void grid_key_cell(uint64_t key, int64_t *cell);
 /* First entry with this key (within its level's range), or -1. */
