@@ -82,11 +82,15 @@ typedef struct {
 } Segment;
 
 typedef struct {
+    int64_t vertex;           /* index + 1, 0 empty */
+    int64_t next;
+} Slot;
+
+typedef struct {
     uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
     uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
-    int64_t *vertex;          /* boundary vertices: index + 1, 0 empty (a hash table) */
-    int64_t *next;            /* per slot: the boundary edge's far end */
-    int64_t vertex_mask;
+    Slot *vertex;             /* boundary vertices and their boundary edges' far ends (a hash table) */
+    int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
     int64_t *boundary;        /* the boundary vertices in the table */
     int64_t *loop;            /* the boundary loop's vertices */
     Segment *segments, *sorted;
@@ -119,7 +123,7 @@ static inline uint64_t mix(uint64_t h)
 
 static void scratch_release(Scratch *sc)
 {
-    free(sc->vertex), free(sc->next), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
+    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
     for (int d = 0; d < PATCH_LEVEL; d++)
         free(sc->list[d]), free(sc->octants[d]);
 }
@@ -132,17 +136,16 @@ static int patch_reserve(Scratch *sc, int64_t k)
     while (cap < k)
         cap *= 2;
     int64_t vertices = 1;
-    while (vertices < 2 * 3 * cap)
+    while (vertices < 2 * (cap + 2))
         vertices *= 2;
     scratch_release(sc);
     sc->cap = 0;
-    sc->vertex = calloc(vertices, sizeof(int64_t));
-    sc->next = malloc(sizeof(int64_t) * vertices);
+    sc->vertex = calloc(vertices, sizeof(Slot));
     sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->vertex && sc->next && sc->boundary && sc->loop && sc->segments && sc->sorted;
+    int ok = sc->vertex && sc->boundary && sc->loop && sc->segments && sc->sorted;
     for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
         ok = (sc->octants[d] = malloc(cap)) && ok;
@@ -151,12 +154,12 @@ static int patch_reserve(Scratch *sc, int64_t k)
         scratch_release(sc);
         memset(sc->list, 0, sizeof(sc->list));
         memset(sc->octants, 0, sizeof(sc->octants));
-        sc->vertex = sc->next = sc->boundary = sc->loop = NULL;
+        sc->vertex = NULL;
+        sc->boundary = sc->loop = NULL;
         sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
     }
-    sc->vertex_mask = vertices - 1;
     sc->cap = cap;
     return 0;
 }
@@ -169,10 +172,9 @@ static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL
 static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
 {
     uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
-    while (sc->vertex[i])
+    while (sc->vertex[i].vertex)
         i = (i + 1) & sc->vertex_mask;
-    sc->vertex[i] = v + 1;
-    sc->next[i] = to;
+    sc->vertex[i] = (Slot){v + 1, to};
     sc->boundary[count] = v;
 }
 
@@ -180,9 +182,9 @@ static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t coun
 static inline int64_t boundary_next(const Scratch *sc, int64_t v)
 {
     for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
-        if (sc->vertex[i] == v + 1)
-            return sc->next[i];
-        if (!sc->vertex[i])
+        if (sc->vertex[i].vertex == v + 1)
+            return sc->vertex[i].next;
+        if (!sc->vertex[i].vertex)
             return -1;
     }
 }
@@ -197,8 +199,8 @@ static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, i
     }
     for (int64_t i = 0; i < boundary; i++) {
         int64_t v = sc->boundary[i];
-        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s]; s = (s + 1) & sc->vertex_mask)
-            sc->vertex[s] = 0;
+        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
+            sc->vertex[s].vertex = 0;
     }
 }
 
@@ -339,9 +341,13 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         return 0;
     for (int64_t i = 0; i < k; i++)
         set_bit(sc->face_bits, grid_id(g, list[i]));
-    /* (b), counting V and B */
+    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2) */
     int ok = 1, y = axis == 0 ? 1 : 0;
     int64_t n_vertices = 0, n_boundary = 0, start = -1;
+    sc->vertex_mask = 1;
+    while (sc->vertex_mask < 2 * (k + 2))
+        sc->vertex_mask *= 2;
+    sc->vertex_mask--;
     const int64_t *F = st->F;
     for (int64_t i = 0; i < k && ok; i++)
         for (int c = 0; c < 3 && ok; c++) {
@@ -380,7 +386,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             upward += !last_above && first_above;
             if (outside == 0)
                 ok = upward == 1;
-            else if (runs == 1) {
+            else if (runs == 1 && n_boundary < k + 2) {
                 boundary_add(sc, v, edge, n_boundary++);
                 start = v;
             } else
@@ -499,13 +505,15 @@ static void patch_block(void *ctx, int worker, int64_t block)
  * of keys sorted.  Faces keep their input index, ascending within a cell as in the sorted grid
  * (grid.c), whose cells, base and entries these are; the sorted grid is the fallback. */
 
+enum { HOME_NONE = 0xFFFFFFFF, HOME_SPLIT = 0xFFFFFFFE };
+
 typedef struct {
     const double *V;
     const int64_t *F;
     const uint8_t *take;
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint8_t *valid;           /* per face: taken, of non-zero area */
+    uint32_t *home;           /* per face: HOME_NONE (not taken, or of zero area), then its cell, or HOME_SPLIT */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
     int64_t *count;           /* per block: valid faces, then entries */
     int top;
@@ -524,8 +532,8 @@ static void valid_block(void *ctx, int64_t block)
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        co->valid[t] = co->take[t] && has_area(a, b, e);
-        if (!co->valid[t])
+        co->home[t] = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        if (co->home[t] == HOME_NONE)
             continue;
         for (int k = 0; k < 3; k++) {
             box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
@@ -542,8 +550,14 @@ static void cells_block(Coarse *co, int64_t block, int fill)
     int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
     uint32_t *slot = co->slot + block * co->n_cells;
     for (int64_t t = t0; t < t1; t++) {
-        if (!co->valid[t])
+        uint32_t home = co->home[t];
+        if (home == HOME_NONE)
             continue;
+        if (fill && home != HOME_SPLIT) {
+            co->face[slot[home]++] = (uint32_t)t;
+            n++;
+            continue;
+        }
         int64_t c0[3], c1[3];
         face_cells(co->g, t, co->top, c0, c1);
         for (int64_t z = c0[2]; z <= c1[2]; z++)
@@ -556,6 +570,9 @@ static void cells_block(Coarse *co, int64_t block, int fill)
                         slot[cell]++;
                     n++;
                 }
+        if (!fill)
+            co->home[t] = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]
+                              ? (uint32_t)((c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0]) : HOME_SPLIT;
     }
     co->count[block] = n;
 }
@@ -582,12 +599,12 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     int64_t most = (m + 8191) / 8192, n_blocks = 4 * (int64_t)(threads < 1 ? 1 : threads);
     co->n_blocks = n_blocks = n_blocks < most ? n_blocks : (most ? most : 1);
     co->per_block = (m + n_blocks - 1) / n_blocks;
-    co->valid = malloc(m ? m : 1);
+    co->home = malloc(sizeof(uint32_t) * (m ? m : 1));
     co->box = malloc(sizeof(double[6]) * n_blocks);
     co->count = malloc(sizeof(int64_t) * n_blocks);
     double *extent = malloc(sizeof(double) * GRID_SAMPLES);
     int status = -1;
-    if (!co->valid || !co->box || !co->count || !extent)
+    if (!co->home || !co->box || !co->count || !extent)
         goto done;
     parallel_blocks(threads, n_blocks, valid_block, co);
     double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -608,7 +625,7 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     for (int x = 0; x < samples; x++) {
         int64_t want = grid_sample(x, n, samples);
         while (rank < want)
-            rank += co->valid[++t];
+            rank += co->home[++t] != HOME_NONE;
         const int64_t *c = F + 3 * t;
         P a = V + 3 * c[0], b = V + 3 * c[1], e = V + 3 * c[2];
         extent[x] = 0.0;
@@ -656,8 +673,8 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     g->n_entries = entries;
     status = 0;
 done:
-    free(co->valid), free(co->box), free(co->count), free(extent);
-    co->valid = NULL;
+    free(co->home), free(co->box), free(co->count), free(extent);
+    co->home = NULL;
     if (status != 0) {
         free(co->slot);
         co->slot = NULL;
