@@ -44,6 +44,7 @@ typedef struct {
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
     int64_t max_degree;
+    int one_shell;            /* every face is of shell 0 (labels are below n_shells, checked by the caller) */
 } Stars;
 
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when

@@ -418,6 +418,8 @@ static void sign_block(void *ctx, int worker, int64_t block)
 /* The shell of v's star, or -1 when its faces lie in several shells. */
 static int64_t star_shell(const Stars *s, const int64_t *shell, int64_t v)
 {
+    if (s->one_shell)
+        return 0;
     int64_t b = s->begin[v], e = s->begin[v + 1];
     int64_t first = shell[s->ring[b] >> 2];
     for (int64_t i = b + 1; i < e; i++)
@@ -532,9 +534,11 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     workers = ready;                   /* fewer workers: the same certificates */
     for (int64_t sh = 0; sh < n_shells; sh++)
         w.origin[sh] = -1;
-    for (int64_t t = 0; t < s->m; t++)
-        if (w.origin[shell[t]] < 0)
+    for (int64_t t = 0, found = 0; t < s->m && found < n_shells; t++)
+        if (w.origin[shell[t]] < 0) {
             w.origin[shell[t]] = s->F[3 * t];
+            found++;
+        }
     int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
     parallel_workers(workers, face_blocks, centre_block, &w);
     for (int64_t sh = 0; sh < n_shells; sh++) {
@@ -594,6 +598,7 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
     s->F = F;
     s->n = n;
     s->m = m;
+    s->one_shell = n_shells == 1;
     s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
     if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s) < 0
         || certify(s, shell, n_shells, wanted, threads, lazy) < 0) {
