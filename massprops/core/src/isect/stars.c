@@ -94,7 +94,47 @@ enum { SIGN_NONE = 0, SIGN_MIXED = 2 };
 
 /* ---- incidences -------------------------------------------------------------------------- */
 
-static int build_incidences(Stars *s)
+/* The incidences of the vertices of one range (of `ranges` equal ones), in face order: counted
+ * (fill 0) into begin[v + 1], or filed (fill 1), begin[v + 1] running from v's start to its end.
+ * Each range reads every face and writes only its own vertices', so the ring does not depend
+ * on the number of ranges. */
+typedef struct {
+    Stars *s;
+    int64_t ranges;
+    int fill;
+} Filing;
+
+static void file_range(void *ctx, int64_t range)
+{
+    const Filing *w = ctx;
+    Stars *s = w->s;
+    const int64_t *F = s->F;
+    int64_t lo = s->n * range / w->ranges, hi = s->n * (range + 1) / w->ranges, m = s->m;
+    int64_t *next = s->begin + 1;
+    if (!w->fill) {
+        for (int64_t i = 0; i < 3 * m; i++)
+            if (F[i] >= lo && F[i] < hi)
+                next[F[i]]++;
+        return;
+    }
+    /* with each incidence, the face's other corners (x, y) while the face is at hand: the cycles
+     * are matched from these instead of from the faces, which around a vertex lie anywhere in
+     * memory; vertex_block copies the incidences into the ring */
+    for (int64_t t = 0; t < m; t++)
+        for (int c = 0; c < 3; c++) {
+            int64_t v = F[3 * t + c];
+            if (v < lo || v >= hi)
+                continue;
+            int64_t at = next[v]++;
+            if (s->filed)
+                s->filed[at] = (Filed){(uint32_t)(t << 2 | c), (uint32_t)F[3 * t + (c == 2 ? 0 : c + 1)],
+                                       (uint32_t)F[3 * t + (c == 0 ? 2 : c - 1)]};
+            else
+                s->ring[at] = (uint32_t)(t << 2 | c);
+        }
+}
+
+static int build_incidences(Stars *s, int threads)
 {
     int64_t n = s->n, m = s->m;
     s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
@@ -102,19 +142,16 @@ static int build_incidences(Stars *s)
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
-    const int64_t *F = s->F;
-    int64_t *count = s->begin + 1;
-    for (int64_t i = 0; i < 3 * m; i++)
-        count[F[i]]++;
+    s->filed = n < ((int64_t)1 << 32) ? isect_alloc(sizeof(Filed) * 3 * m, 0) : NULL;
+    Filing w = {s, threads < 1 ? 1 : threads, 0};
+    parallel_blocks(threads, w.ranges, file_range, &w);
     for (int64_t v = 0, total = 0; v <= n; v++) {
         int64_t c = s->begin[v];
         s->begin[v] = total;
         total += c;
     }
-    /* begin[v + 1] runs from v's start to its end as v's incidences are filed */
-    for (int64_t t = 0; t < m; t++)
-        for (int c = 0; c < 3; c++)
-            s->ring[s->begin[F[3 * t + c] + 1]++] = (uint32_t)(t << 2 | c);
+    w.fill = 1;
+    parallel_blocks(threads, w.ranges, file_range, &w);
     return 0;
 }
 
@@ -174,7 +211,11 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc)
     if (k < 3)
         return 0;
     const int64_t *F = s->F;
-    for (int64_t i = 0; i < k; i++) {
+    for (int64_t i = 0; s->filed && i < k; i++) {
+        sc->x[i] = s->filed[b + i].x;
+        sc->y[i] = s->filed[b + i].y;
+    }
+    for (int64_t i = 0; !s->filed && i < k; i++) {
         uint32_t r = s->ring[b + i];
         int64_t f = r >> 2;
         int c = r & 3;
@@ -443,6 +484,9 @@ static void vertex_block(void *ctx, int worker, int64_t block)
     int64_t end = (block + 1) * VERTEX_BLOCK < s->n ? (block + 1) * VERTEX_BLOCK : s->n;
     int64_t current = -1, count = 0, certified = 0;
     for (int64_t v = block * VERTEX_BLOCK; v < end; v++) {
+        if (s->filed && !w->certify_failed)
+            for (int64_t i = s->begin[v]; i < s->begin[v + 1]; i++)
+                s->ring[i] = s->filed[i].entry;
         if (s->begin[v + 1] == s->begin[v])
             continue;
         int64_t k = s->begin[v + 1] - s->begin[v];
@@ -600,11 +644,13 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
     s->m = m;
     s->one_shell = n_shells == 1;
     s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
-    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s) < 0
+    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s, threads) < 0
         || certify(s, shell, n_shells, wanted, threads, lazy) < 0) {
         stars_free(s);
         return -1;
     }
+    free(s->filed);
+    s->filed = NULL;
     return 0;
 }
 
@@ -677,6 +723,7 @@ void stars_free(Stars *s)
     free(s->begin);
     free(s->ring);
     free(s->flag);
+    free(s->filed);
     free(s->shell_embedded);
     memset(s, 0, sizeof(*s));
 }
