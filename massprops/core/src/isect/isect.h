@@ -35,17 +35,13 @@ void *isect_alloc(size_t bytes, int zeroed);
 enum { STAR_CYCLE = 1, STAR_EMBEDDED = 2, STAR_TRIED = 4 };
 
 typedef struct {
-    uint32_t entry, x, y;     /* face << 2 | corner, and the face's next and previous corners */
-} Filed;
-
-typedef struct {
     const double *V;
     const int64_t *F;
     int64_t n, m;             /* vertices, faces */
     int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
     uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
-    Filed *filed;             /* until the cycles are found: the incidences as filed, with their faces'
-                               * next and previous corners (NULL: the ring is filed directly) */
+    uint64_t *xy;             /* until the cycles are found: per incidence as filed, its face's next corner
+                               * | previous corner << 32 (NULL: read from F) */
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;

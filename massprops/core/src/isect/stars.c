@@ -119,18 +119,16 @@ static void file_range(void *ctx, int64_t range)
     }
     /* with each incidence, the face's other corners (x, y) while the face is at hand: the cycles
      * are matched from these instead of from the faces, which around a vertex lie anywhere in
-     * memory; vertex_block copies the incidences into the ring */
+     * memory */
     for (int64_t t = 0; t < m; t++)
         for (int c = 0; c < 3; c++) {
             int64_t v = F[3 * t + c];
             if (v < lo || v >= hi)
                 continue;
             int64_t at = next[v]++;
-            if (s->filed)
-                s->filed[at] = (Filed){(uint32_t)(t << 2 | c), (uint32_t)F[3 * t + (c == 2 ? 0 : c + 1)],
-                                       (uint32_t)F[3 * t + (c == 0 ? 2 : c - 1)]};
-            else
-                s->ring[at] = (uint32_t)(t << 2 | c);
+            s->ring[at] = (uint32_t)(t << 2 | c);
+            if (s->xy)
+                s->xy[at] = (uint64_t)F[3 * t + (c == 2 ? 0 : c + 1)] | (uint64_t)F[3 * t + (c == 0 ? 2 : c - 1)] << 32;
         }
 }
 
@@ -142,7 +140,7 @@ static int build_incidences(Stars *s, int threads)
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
-    s->filed = n < ((int64_t)1 << 32) ? isect_alloc(sizeof(Filed) * 3 * m, 0) : NULL;
+    s->xy = n < ((int64_t)1 << 32) ? isect_alloc(sizeof(uint64_t) * 3 * m, 0) : NULL;
     Filing w = {s, threads < 1 ? 1 : threads, 0};
     parallel_blocks(threads, w.ranges, file_range, &w);
     for (int64_t v = 0, total = 0; v <= n; v++) {
@@ -211,11 +209,11 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc)
     if (k < 3)
         return 0;
     const int64_t *F = s->F;
-    for (int64_t i = 0; s->filed && i < k; i++) {
-        sc->x[i] = s->filed[b + i].x;
-        sc->y[i] = s->filed[b + i].y;
+    for (int64_t i = 0; s->xy && i < k; i++) {
+        sc->x[i] = (int64_t)(s->xy[b + i] & 0xFFFFFFFF);
+        sc->y[i] = (int64_t)(s->xy[b + i] >> 32);
     }
-    for (int64_t i = 0; !s->filed && i < k; i++) {
+    for (int64_t i = 0; !s->xy && i < k; i++) {
         uint32_t r = s->ring[b + i];
         int64_t f = r >> 2;
         int c = r & 3;
@@ -484,9 +482,6 @@ static void vertex_block(void *ctx, int worker, int64_t block)
     int64_t end = (block + 1) * VERTEX_BLOCK < s->n ? (block + 1) * VERTEX_BLOCK : s->n;
     int64_t current = -1, count = 0, certified = 0;
     for (int64_t v = block * VERTEX_BLOCK; v < end; v++) {
-        if (s->filed && !w->certify_failed)
-            for (int64_t i = s->begin[v]; i < s->begin[v + 1]; i++)
-                s->ring[i] = s->filed[i].entry;
         if (s->begin[v + 1] == s->begin[v])
             continue;
         int64_t k = s->begin[v + 1] - s->begin[v];
@@ -649,8 +644,8 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
         stars_free(s);
         return -1;
     }
-    free(s->filed);
-    s->filed = NULL;
+    free(s->xy);
+    s->xy = NULL;
     return 0;
 }
 
@@ -723,7 +718,7 @@ void stars_free(Stars *s)
     free(s->begin);
     free(s->ring);
     free(s->flag);
-    free(s->filed);
+    free(s->xy);
     free(s->shell_embedded);
     memset(s, 0, sizeof(*s));
 }
