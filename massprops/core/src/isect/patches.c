@@ -4,7 +4,8 @@
  * On a shell that is not star-shaped (a torus, most machined parts) the
  * search would otherwise enumerate every pair of neighbouring faces whose
  * boxes meet.  Here a coarse grid (cells 8 times the search's; grid.c, every
- * face at one level) is built first, and each cell's faces are certified as
+ * face at one level, filed by counting into an array of cells; below) is
+ * built first, and each cell's faces are certified as
  * one embedded patch when they can be; failing that, each of the cell's
  * children, then each of theirs.  Only faces in some cell that is not
  * certified go on to the pair search.
@@ -503,7 +504,9 @@ static void patch_block(void *ctx, int worker, int64_t block)
 /* Every face is at one level, so the cells can be an array (when there are not many more cells
  * than faces) and the faces filed into them by counting: per block of faces, per cell, instead
  * of keys sorted.  Faces keep their input index, ascending within a cell as in the sorted grid
- * (grid.c), whose cells, base and entries these are; the sorted grid is the fallback. */
+ * (grid.c), whose cells, base and entries these are; the sorted grid is the fallback.  About 5
+ * bytes a face (a 32-bit index per entry; each face's cell while filing) instead of the sorted
+ * grid's 40 (keys, copies, cells and the sort's scratch). */
 
 enum { HOME_NONE = 0xFFFFFFFF, HOME_SPLIT = 0xFFFFFFFE };
 
