@@ -551,3 +551,23 @@ def test_crossing_pairs_of_several_shells_are_every_pair_that_meets(seed, second
     geometry = ExactGeometry(np.array(points, dtype=float))
     reported, _ = geometry.crossing_pairs(np.array(faces), labels, 3)
     assert {tuple(p) for p in reported.tolist()} == crossing_pairs(points, faces)
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.integers(0, 2 ** 31), st.sampled_from([2, 20]), st.sampled_from([10 ** 3, 10 ** 6]))
+def test_parts_far_apart_under_one_label_meet_themselves_exactly_where_pairs_of_their_faces_do(seed, spike, apart):
+    """Three finely cut boxes far apart under one label (not star-shaped: certified patch by patch,
+    in a coarse grid whose cells, at 10**6 apart, far outnumber the faces), the middle of each
+    bottom pushed up short of the top or through it: the pairs found are exactly those of every
+    pair of faces tested exactly."""
+    rng = np.random.default_rng(seed)
+    points, faces = [], []
+    for shift in ([0, 0, 0], [apart, 0, 0], [0, apart, apart]):
+        p, f = _finely_cut_box(3, rng, spike)
+        faces += [[i + len(points) for i in face] for face in f]
+        points += [[x + s for x, s in zip(q, shift)] for q in p]
+    if any(_area_zero([points[i] for i in f]) for f in faces):
+        return
+    reported, _ = search_pairs(np.array(points, dtype=float), faces)
+    assert reported == crossing_pairs(points, faces)
+    assert bool(reported) == (spike == 20)

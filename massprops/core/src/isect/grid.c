@@ -260,27 +260,17 @@ static int64_t *face_order(const int64_t *F, const int8_t *axis, int64_t m, int6
     return order;
 }
 
-/* The finest cell: twice the largest sampled face extent when that extent is at most twice the
- * 90th percentile (one level: no lookups across levels; cells twice the faces' size keep the
- * entries near 2.5 a face), else that percentile (larger faces go up a level per doubling);
- * never below 2**-17 of the whole, so cell indices fit INDEX_BITS.  A grid with every face at
- * one level (`one_level`: the patch grid, patches.c) takes twice that percentile instead: its
- * cells then hold as many faces as on a mesh of faces of one size, as patches.c sizes them (at
- * the percentile, a few long faces made its cells a quarter of that: four times the cells to
- * certify, and the search on a 5,120-face dented icosphere took 1.6 ms instead of 0.95). */
-static int choose_base(Grid *g, double whole, double *base, int one_level)
+/* The finest cell from the extents of up to 4,096 faces sampled evenly in the faces' order
+ * (extent[] is reordered): twice the largest when it is at most twice the 90th percentile (one
+ * level: no lookups across levels; cells twice the faces' size keep the entries near 2.5 a face),
+ * else that percentile (larger faces go up a level per doubling); never below 2**-17 of the
+ * whole, so cell indices fit INDEX_BITS.  A grid with every face at one level (`one_level`: the
+ * patch grid, patches.c) takes twice that percentile instead: its cells then hold as many faces
+ * as on a mesh of faces of one size, as patches.c sizes them (at the percentile, a few long faces
+ * made its cells a quarter of that: four times the cells to certify, and the search on a
+ * 5,120-face dented icosphere took 1.6 ms instead of 0.95). */
+double grid_base(double *extent, int samples, double whole, int one_level)
 {
-    int64_t n = g->n;
-    int samples = n < 4096 ? (int)n : 4096;
-    double *extent = malloc(sizeof(double) * samples);
-    if (!extent)
-        return -1;
-    for (int s = 0; s < samples; s++) {
-        int64_t t = (int64_t)((double)s * n / samples);
-        double lo[3], hi[3];
-        face_box(g, t, lo, hi);
-        extent[s] = face_extent(lo, hi);
-    }
     double largest = 0.0;                       /* extents are >= 0 */
     for (int s = 0; s < samples; s++)
         largest = extent[s] > largest ? extent[s] : largest;
@@ -289,9 +279,24 @@ static int choose_base(Grid *g, double whole, double *base, int one_level)
         b = 2.0 * largest;
     else if (one_level)
         b = 2.0 * b;
-    free(extent);
     double floor_size = ldexp(whole, -(INDEX_BITS - 2));
-    *base = b > floor_size ? b : floor_size;
+    return b > floor_size ? b : floor_size;
+}
+
+static int choose_base(Grid *g, double whole, double *base, int one_level)
+{
+    int64_t n = g->n;
+    int samples = n < GRID_SAMPLES ? (int)n : GRID_SAMPLES;
+    double *extent = malloc(sizeof(double) * (samples ? samples : 1));
+    if (!extent)
+        return -1;
+    for (int s = 0; s < samples; s++) {
+        double lo[3], hi[3];
+        face_box(g, grid_sample(s, n, samples), lo, hi);
+        extent[s] = face_extent(lo, hi);
+    }
+    *base = grid_base(extent, samples, whole, one_level);
+    free(extent);
     return 0;
 }
 

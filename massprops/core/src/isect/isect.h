@@ -40,10 +40,13 @@ typedef struct {
     int64_t n, m;             /* vertices, faces */
     int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
     uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
+    uint64_t *xy;             /* until the cycles are found: per incidence as filed, its face's next corner
+                               * | previous corner << 32 (NULL: read from F) */
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
     int64_t max_degree;
+    int one_shell;            /* every face is of shell 0 (labels are below n_shells, checked by the caller) */
 } Stars;
 
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
@@ -129,6 +132,12 @@ static inline void grid_face_cells(const Grid *g, int64_t t, int level, int64_t 
         c1[k] = (g->high_cell ? (int64_t)g->high_cell[3 * t + k] : grid_cell0(g, k, g->hi[3 * t + k])) >> level;
     }
 }
+
+/* The side of the finest cells (grid.c): from the extents of GRID_SAMPLES faces (or all, when
+ * fewer), sample s being face grid_sample(s, n, samples) in the order of the n faces. */
+#define GRID_SAMPLES 4096
+static inline int64_t grid_sample(int s, int64_t n, int samples) { return (int64_t)((double)s * n / samples); }
+double grid_base(double *extent, int samples, double whole, int one_level);
 
 uint64_t grid_key(int level, int64_t i, int64_t j, int64_t k);
 void grid_key_cell(uint64_t key, int64_t *cell);

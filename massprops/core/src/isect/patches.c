@@ -4,7 +4,8 @@
  * On a shell that is not star-shaped (a torus, most machined parts) the
  * search would otherwise enumerate every pair of neighbouring faces whose
  * boxes meet.  Here a coarse grid (cells 8 times the search's; grid.c, every
- * face at one level) is built first, and each cell's faces are certified as
+ * face at one level, filed by counting into an array of cells; below) is
+ * built first, and each cell's faces are certified as
  * one embedded patch when they can be; failing that, each of the cell's
  * children, then each of theirs.  Only faces in some cell that is not
  * certified go on to the pair search.
@@ -82,11 +83,15 @@ typedef struct {
 } Segment;
 
 typedef struct {
+    int64_t vertex;           /* index + 1, 0 empty */
+    int64_t next;
+} Slot;
+
+typedef struct {
     uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
     uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
-    int64_t *vertex;          /* boundary vertices: index + 1, 0 empty (a hash table) */
-    int64_t *next;            /* per slot: the boundary edge's far end */
-    int64_t vertex_mask;
+    Slot *vertex;             /* boundary vertices and their boundary edges' far ends (a hash table) */
+    int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
     int64_t *boundary;        /* the boundary vertices in the table */
     int64_t *loop;            /* the boundary loop's vertices */
     Segment *segments, *sorted;
@@ -102,8 +107,11 @@ typedef struct {
     const uint8_t *embedded;  /* per shell, or NULL */
     uint8_t *bad;             /* per original face: in some cell not certified */
     int64_t n_blocks;
-    int64_t *cut;             /* n_blocks + 1 entry cuts, at key boundaries */
+    int64_t *cut;             /* n_blocks + 1 cuts: entries at key boundaries (sorted grid), or cells */
     Scratch *scratch;         /* per worker */
+    const uint32_t *cell_end; /* counted grid: per cell, the end of its faces in g->face (NULL: sorted grid) */
+    int64_t dims[3];          /* counted grid: cells along each axis, at level `top` */
+    int top;
 } Patches;
 
 static inline uint64_t mix(uint64_t h)
@@ -116,7 +124,7 @@ static inline uint64_t mix(uint64_t h)
 
 static void scratch_release(Scratch *sc)
 {
-    free(sc->vertex), free(sc->next), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
+    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
     for (int d = 0; d < PATCH_LEVEL; d++)
         free(sc->list[d]), free(sc->octants[d]);
 }
@@ -129,17 +137,16 @@ static int patch_reserve(Scratch *sc, int64_t k)
     while (cap < k)
         cap *= 2;
     int64_t vertices = 1;
-    while (vertices < 2 * 3 * cap)
+    while (vertices < 2 * (cap + 2))
         vertices *= 2;
     scratch_release(sc);
     sc->cap = 0;
-    sc->vertex = calloc(vertices, sizeof(int64_t));
-    sc->next = malloc(sizeof(int64_t) * vertices);
+    sc->vertex = calloc(vertices, sizeof(Slot));
     sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->vertex && sc->next && sc->boundary && sc->loop && sc->segments && sc->sorted;
+    int ok = sc->vertex && sc->boundary && sc->loop && sc->segments && sc->sorted;
     for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
         ok = (sc->octants[d] = malloc(cap)) && ok;
@@ -148,12 +155,12 @@ static int patch_reserve(Scratch *sc, int64_t k)
         scratch_release(sc);
         memset(sc->list, 0, sizeof(sc->list));
         memset(sc->octants, 0, sizeof(sc->octants));
-        sc->vertex = sc->next = sc->boundary = sc->loop = NULL;
+        sc->vertex = NULL;
+        sc->boundary = sc->loop = NULL;
         sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
     }
-    sc->vertex_mask = vertices - 1;
     sc->cap = cap;
     return 0;
 }
@@ -166,10 +173,9 @@ static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL
 static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
 {
     uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
-    while (sc->vertex[i])
+    while (sc->vertex[i].vertex)
         i = (i + 1) & sc->vertex_mask;
-    sc->vertex[i] = v + 1;
-    sc->next[i] = to;
+    sc->vertex[i] = (Slot){v + 1, to};
     sc->boundary[count] = v;
 }
 
@@ -177,9 +183,9 @@ static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t coun
 static inline int64_t boundary_next(const Scratch *sc, int64_t v)
 {
     for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
-        if (sc->vertex[i] == v + 1)
-            return sc->next[i];
-        if (!sc->vertex[i])
+        if (sc->vertex[i].vertex == v + 1)
+            return sc->vertex[i].next;
+        if (!sc->vertex[i].vertex)
             return -1;
     }
 }
@@ -194,8 +200,8 @@ static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, i
     }
     for (int64_t i = 0; i < boundary; i++) {
         int64_t v = sc->boundary[i];
-        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s]; s = (s + 1) & sc->vertex_mask)
-            sc->vertex[s] = 0;
+        for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
+            sc->vertex[s].vertex = 0;
     }
 }
 
@@ -336,9 +342,13 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         return 0;
     for (int64_t i = 0; i < k; i++)
         set_bit(sc->face_bits, grid_id(g, list[i]));
-    /* (b), counting V and B */
+    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2) */
     int ok = 1, y = axis == 0 ? 1 : 0;
     int64_t n_vertices = 0, n_boundary = 0, start = -1;
+    sc->vertex_mask = 1;
+    while (sc->vertex_mask < 2 * (k + 2))
+        sc->vertex_mask *= 2;
+    sc->vertex_mask--;
     const int64_t *F = st->F;
     for (int64_t i = 0; i < k && ok; i++)
         for (int c = 0; c < 3 && ok; c++) {
@@ -377,7 +387,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             upward += !last_above && first_above;
             if (outside == 0)
                 ok = upward == 1;
-            else if (runs == 1) {
+            else if (runs == 1 && n_boundary < k + 2) {
                 boundary_add(sc, v, edge, n_boundary++);
                 start = v;
             } else
@@ -398,6 +408,21 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         ok = loop_simple(V, sc->loop, n_boundary, axis, sc);
     clear(sc, g, list, k, n_boundary);
     return ok;
+}
+
+/* The cells of `level` that face t's box covers (the counted grid keeps no cells: from its corners). */
+static inline void face_cells(const Grid *g, int64_t t, int level, int64_t *c0, int64_t *c1)
+{
+    if (g->low_cell) {
+        grid_face_cells(g, t, level, c0, c1);
+        return;
+    }
+    const int64_t *c = g->corner + 3 * t;
+    P a = g->V + 3 * c[0], b = g->V + 3 * c[1], e = g->V + 3 * c[2];
+    for (int k = 0; k < 3; k++) {
+        c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> level;
+        c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> level;
+    }
 }
 
 static void mark_bad(const Patches *pa, const uint32_t *list, int64_t k)
@@ -427,7 +452,7 @@ static void certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, i
     uint8_t *octants = sc->octants[child];
     for (int64_t i = 0; i < k; i++) {
         int64_t c0[3], c1[3];
-        grid_face_cells(g, list[i], child, c0, c1);
+        face_cells(g, list[i], child, c0, c1);
         unsigned along[3];
         for (int a = 0; a < 3; a++)
             along[a] = (c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a]) | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a]) << 1;
@@ -454,6 +479,15 @@ static void patch_block(void *ctx, int worker, int64_t block)
     const Grid *g = pa->g;
     Scratch *sc = &pa->scratch[worker];
     int64_t e = pa->cut[block], end = pa->cut[block + 1];
+    if (pa->cell_end) {
+        for (int64_t c = e; c < end; c++) {
+            int64_t first = c ? pa->cell_end[c - 1] : 0;
+            int64_t cell[3] = {c % pa->dims[0], c / pa->dims[0] % pa->dims[1], c / pa->dims[0] / pa->dims[1]};
+            if (pa->cell_end[c] > first)
+                certify_cell(pa, sc, g->face + first, pa->cell_end[c] - first, pa->top, cell);
+        }
+        return;
+    }
     while (e < end) {
         int64_t run = e + 1;
         while (run < end && g->key[run] == g->key[e])
@@ -463,6 +497,193 @@ static void patch_block(void *ctx, int worker, int64_t block)
         certify_cell(pa, sc, g->face + e, run - e, (int)(g->key[e] >> LEVEL_SHIFT), cell);
         e = run;
     }
+}
+
+/* ---- the coarse grid, by counting ------------------------------------------------------------ */
+
+/* Every face is at one level, so the cells can be an array (when there are not many more cells
+ * than faces) and the faces filed into them by counting: per block of faces, per cell, instead
+ * of keys sorted.  Faces keep their input index, ascending within a cell as in the sorted grid
+ * (grid.c), whose cells, base and entries these are; the sorted grid is the fallback.  About 5
+ * bytes a face (a 32-bit index per entry; each face's cell while filing) instead of the sorted
+ * grid's 40 (keys, copies, cells and the sort's scratch). */
+
+enum { HOME_NONE = 0xFFFFFFFF, HOME_SPLIT = 0xFFFFFFFE };
+
+typedef struct {
+    const double *V;
+    const int64_t *F;
+    const uint8_t *take;
+    const Grid *g;
+    int64_t m, per_block, n_blocks;
+    uint32_t *home;           /* per face: HOME_NONE (not taken, or of zero area), then its cell, or HOME_SPLIT */
+    double (*box)[6];         /* per block: low corner, high corner of its valid faces */
+    int64_t *count;           /* per block: valid faces, then entries */
+    int top;
+    int64_t dims[3], n_cells;
+    uint32_t *slot;           /* per block, per cell: entries, then where the next one goes */
+    uint32_t *face;           /* per entry: input face index */
+} Coarse;
+
+static void valid_block(void *ctx, int64_t block)
+{
+    Coarse *co = ctx;
+    int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
+    double *box = co->box[block];
+    for (int k = 0; k < 3; k++)
+        box[k] = INFINITY, box[3 + k] = -INFINITY;
+    for (int64_t t = t0; t < t1; t++) {
+        const int64_t *c = co->F + 3 * t;
+        P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
+        co->home[t] = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        if (co->home[t] == HOME_NONE)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
+            box[3 + k] = dmax(box[3 + k], dmax(a[k], dmax(b[k], e[k])));
+        }
+        n++;
+    }
+    co->count[block] = n;
+}
+
+/* The block's entries: counted per cell (fill 0), or filed (fill 1). */
+static void cells_block(Coarse *co, int64_t block, int fill)
+{
+    int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
+    uint32_t *slot = co->slot + block * co->n_cells;
+    for (int64_t t = t0; t < t1; t++) {
+        uint32_t home = co->home[t];
+        if (home == HOME_NONE)
+            continue;
+        if (fill && home != HOME_SPLIT) {
+            co->face[slot[home]++] = (uint32_t)t;
+            n++;
+            continue;
+        }
+        int64_t c0[3], c1[3];
+        face_cells(co->g, t, co->top, c0, c1);
+        for (int64_t z = c0[2]; z <= c1[2]; z++)
+            for (int64_t y = c0[1]; y <= c1[1]; y++)
+                for (int64_t x = c0[0]; x <= c1[0]; x++) {
+                    int64_t cell = (z * co->dims[1] + y) * co->dims[0] + x;
+                    if (fill)
+                        co->face[slot[cell]++] = (uint32_t)t;
+                    else
+                        slot[cell]++;
+                    n++;
+                }
+        if (!fill)
+            co->home[t] = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]
+                              ? (uint32_t)((c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0]) : HOME_SPLIT;
+    }
+    co->count[block] = n;
+}
+
+static void count_block(void *ctx, int64_t block) { cells_block(ctx, block, 0); }
+static void fill_block(void *ctx, int64_t block) { cells_block(ctx, block, 1); }
+
+/* The coarse grid at level `top` of the faces taken, counted into g (its faces are the input's:
+ * g->corner = F) and co->slot; 0, 1 when nothing is to be done (no face, or more than
+ * PATCH_ENTRY_LIMIT entries a face, as grid_build_at), 2 when the cells are too many for an array
+ * (then nothing is built), -1 out of memory. */
+static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, const int64_t *shell,
+                        const uint8_t *take, int64_t m, int top, int threads)
+{
+    memset(g, 0, sizeof(*g));
+    memset(co, 0, sizeof(*co));
+    g->V = co->V = V;
+    g->corner = co->F = F;
+    g->shell = shell;
+    co->take = take;
+    co->g = g;
+    co->m = m;
+    co->top = top;
+    int64_t most = (m + 8191) / 8192, n_blocks = 4 * (int64_t)(threads < 1 ? 1 : threads);
+    co->n_blocks = n_blocks = n_blocks < most ? n_blocks : (most ? most : 1);
+    co->per_block = (m + n_blocks - 1) / n_blocks;
+    co->home = malloc(sizeof(uint32_t) * (m ? m : 1));
+    co->box = malloc(sizeof(double[6]) * n_blocks);
+    co->count = malloc(sizeof(int64_t) * n_blocks);
+    double *extent = malloc(sizeof(double) * GRID_SAMPLES);
+    int status = -1;
+    if (!co->home || !co->box || !co->count || !extent)
+        goto done;
+    parallel_blocks(threads, n_blocks, valid_block, co);
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    int64_t n = 0;
+    for (int64_t k = 0; k < n_blocks; k++) {
+        n += co->count[k];
+        for (int a = 0; a < 3; a++) {
+            glo[a] = dmin(glo[a], co->box[k][a]);
+            ghi[a] = dmax(ghi[a], co->box[k][3 + a]);
+        }
+    }
+    status = 1;
+    if (n == 0)
+        goto done;
+    /* the sorted grid's base: sample s is its valid face of rank grid_sample(s) */
+    int samples = n < GRID_SAMPLES ? (int)n : GRID_SAMPLES;
+    int64_t t = -1, rank = -1;
+    for (int x = 0; x < samples; x++) {
+        int64_t want = grid_sample(x, n, samples);
+        while (rank < want)
+            rank += co->home[++t] != HOME_NONE;
+        const int64_t *c = F + 3 * t;
+        P a = V + 3 * c[0], b = V + 3 * c[1], e = V + 3 * c[2];
+        extent[x] = 0.0;
+        for (int k = 0; k < 3; k++)
+            extent[x] = dmax(extent[x], dmax(a[k], dmax(b[k], e[k])) - dmin(a[k], dmin(b[k], e[k])));
+    }
+    double whole = dmax(ghi[0] - glo[0], dmax(ghi[1] - glo[1], ghi[2] - glo[2]));
+    if (!(whole > 0.0))
+        whole = 1.0;
+    double base = grid_base(extent, samples, whole, 1);
+    for (int k = 0; k < 3; k++)
+        g->origin[k] = glo[k];
+    g->inverse = 1.0 / base;
+    co->n_cells = 1;
+    for (int k = 0; k < 3; k++) {
+        co->dims[k] = (grid_cell0(g, k, ghi[k]) >> top) + 1;
+        co->n_cells *= co->dims[k];
+    }
+    status = 2;
+    if (co->n_cells > (n + 65536) / n_blocks)
+        goto done;
+    status = -1;
+    co->slot = calloc((size_t)(n_blocks * co->n_cells), sizeof(uint32_t));
+    if (!co->slot)
+        goto done;
+    parallel_blocks(threads, n_blocks, count_block, co);
+    int64_t entries = 0;
+    for (int64_t k = 0; k < n_blocks; k++)
+        entries += co->count[k];
+    status = 1;
+    if (entries > PATCH_ENTRY_LIMIT * n)
+        goto done;
+    status = -1;
+    for (int64_t c = 0, at = 0; c < co->n_cells; c++)
+        for (int64_t k = 0; k < n_blocks; k++) {
+            uint32_t x = co->slot[k * co->n_cells + c];
+            co->slot[k * co->n_cells + c] = (uint32_t)at;
+            at += x;
+        }
+    g->face = co->face = isect_alloc(sizeof(uint32_t) * (entries ? entries : 1), 0);
+    if (!g->face)
+        goto done;
+    parallel_blocks(threads, n_blocks, fill_block, co);
+    g->n = n;
+    g->n_entries = entries;
+    status = 0;
+done:
+    free(co->home), free(co->box), free(co->count), free(extent);
+    co->home = NULL;
+    if (status != 0) {
+        free(co->slot);
+        co->slot = NULL;
+        grid_free(g);
+    }
+    return status;
 }
 
 int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *take, int64_t m,
@@ -477,7 +698,10 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     while (top < PATCH_LEVEL && ((int64_t)1024 << (2 * (top + 1))) <= taken)
         top++;
     Grid g;
-    int status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
+    Coarse co;
+    int status = coarse_build(&co, &g, V, F, shell, take, m, top, threads);
+    if (status == 2)
+        status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
     if (status != 0 || g.n == 0) {
         grid_free(&g);
         return status < 0 ? -1 : 1;
@@ -488,6 +712,11 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     pa.stars = stars;
     pa.embedded = stars->shell_embedded;
     pa.bad = bad;
+    if (co.slot) {
+        pa.cell_end = co.slot + (co.n_blocks - 1) * co.n_cells;
+        memcpy(pa.dims, co.dims, sizeof(pa.dims));
+        pa.top = top;
+    }
     int64_t want = g.n_entries / PATCH_BLOCK + 1;
     int workers = threads < 1 ? 1 : threads;
     pa.cut = malloc(sizeof(int64_t) * (want + 2));
@@ -502,7 +731,13 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     if (pa.cut && ready) {
         int64_t n_cuts = 0, at = 0;
         pa.cut[n_cuts++] = 0;
-        while (at < g.n_entries && n_cuts <= want) {
+        /* the counted grid: runs of cells of about PATCH_BLOCK entries */
+        for (int64_t c = 0, next = PATCH_BLOCK; pa.cell_end && c < co.n_cells; c++)
+            if (pa.cell_end[c] >= next || c == co.n_cells - 1) {
+                pa.cut[n_cuts++] = c + 1;
+                next = pa.cell_end[c] + PATCH_BLOCK;
+            }
+        while (!pa.cell_end && at < g.n_entries && n_cuts <= want) {
             int64_t next = at + PATCH_BLOCK < g.n_entries ? at + PATCH_BLOCK : g.n_entries;
             while (next < g.n_entries && g.key[next] == g.key[next - 1])
                 next++;
@@ -519,7 +754,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
         scratch_release(&pa.scratch[k]);
         free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
     }
-    free(pa.cut), free(pa.scratch);
+    free(pa.cut), free(pa.scratch), free(co.slot);
     grid_free(&g);
     return status;
 }

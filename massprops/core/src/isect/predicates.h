@@ -207,6 +207,16 @@ static int triangle_axis(P p, P q, P r)
     return -1;
 }
 
+/* Whether p, q, r are not collinear (triangle_axis(p, q, r) >= 0), exactly: orient2d's filter
+ * in the projection along z first (it settles almost every face), then triangle_axis. */
+static inline int has_area(P p, P q, P r)
+{
+    double left = (p[0] - r[0]) * (q[1] - r[1]), right = (p[1] - r[1]) * (q[0] - r[0]);
+    if (fabs(left - right) > O2_BOUND * (fabs(left) + fabs(right)))
+        return 1;
+    return triangle_axis(p, q, r) >= 0;
+}
+
 /* ---- closed-set tests ---------------------------------------------------------------------- */
 
 /* c, known collinear with a and b in projection k, lies within the segment. */

@@ -94,7 +94,45 @@ enum { SIGN_NONE = 0, SIGN_MIXED = 2 };
 
 /* ---- incidences -------------------------------------------------------------------------- */
 
-static int build_incidences(Stars *s)
+/* The incidences of the vertices of one range (of `ranges` equal ones), in face order: counted
+ * (fill 0) into begin[v + 1], or filed (fill 1), begin[v + 1] running from v's start to its end.
+ * Each range reads every face and writes only its own vertices', so the ring does not depend
+ * on the number of ranges. */
+typedef struct {
+    Stars *s;
+    int64_t ranges;
+    int fill;
+} Filing;
+
+static void file_range(void *ctx, int64_t range)
+{
+    const Filing *w = ctx;
+    Stars *s = w->s;
+    const int64_t *F = s->F;
+    int64_t lo = s->n * range / w->ranges, hi = s->n * (range + 1) / w->ranges, m = s->m;
+    int64_t *next = s->begin + 1;
+    if (!w->fill) {
+        for (int64_t i = 0; i < 3 * m; i++)
+            if (F[i] >= lo && F[i] < hi)
+                next[F[i]]++;
+        return;
+    }
+    /* with each incidence, the face's other corners (x, y) while the face is at hand: the cycles
+     * are matched from these instead of from the faces, which around a vertex lie anywhere in
+     * memory */
+    for (int64_t t = 0; t < m; t++)
+        for (int c = 0; c < 3; c++) {
+            int64_t v = F[3 * t + c];
+            if (v < lo || v >= hi)
+                continue;
+            int64_t at = next[v]++;
+            s->ring[at] = (uint32_t)(t << 2 | c);
+            if (s->xy)
+                s->xy[at] = (uint64_t)F[3 * t + (c == 2 ? 0 : c + 1)] | (uint64_t)F[3 * t + (c == 0 ? 2 : c - 1)] << 32;
+        }
+}
+
+static int build_incidences(Stars *s, int threads)
 {
     int64_t n = s->n, m = s->m;
     s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
@@ -102,19 +140,16 @@ static int build_incidences(Stars *s)
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
-    const int64_t *F = s->F;
-    int64_t *count = s->begin + 1;
-    for (int64_t i = 0; i < 3 * m; i++)
-        count[F[i]]++;
+    s->xy = n < ((int64_t)1 << 32) ? isect_alloc(sizeof(uint64_t) * 3 * m, 0) : NULL;
+    Filing w = {s, threads < 1 ? 1 : threads, 0};
+    parallel_blocks(threads, w.ranges, file_range, &w);
     for (int64_t v = 0, total = 0; v <= n; v++) {
         int64_t c = s->begin[v];
         s->begin[v] = total;
         total += c;
     }
-    /* begin[v + 1] runs from v's start to its end as v's incidences are filed */
-    for (int64_t t = 0; t < m; t++)
-        for (int c = 0; c < 3; c++)
-            s->ring[s->begin[F[3 * t + c] + 1]++] = (uint32_t)(t << 2 | c);
+    w.fill = 1;
+    parallel_blocks(threads, w.ranges, file_range, &w);
     return 0;
 }
 
@@ -174,7 +209,11 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc)
     if (k < 3)
         return 0;
     const int64_t *F = s->F;
-    for (int64_t i = 0; i < k; i++) {
+    for (int64_t i = 0; s->xy && i < k; i++) {
+        sc->x[i] = (int64_t)(s->xy[b + i] & 0xFFFFFFFF);
+        sc->y[i] = (int64_t)(s->xy[b + i] >> 32);
+    }
+    for (int64_t i = 0; !s->xy && i < k; i++) {
         uint32_t r = s->ring[b + i];
         int64_t f = r >> 2;
         int c = r & 3;
@@ -418,6 +457,8 @@ static void sign_block(void *ctx, int worker, int64_t block)
 /* The shell of v's star, or -1 when its faces lie in several shells. */
 static int64_t star_shell(const Stars *s, const int64_t *shell, int64_t v)
 {
+    if (s->one_shell)
+        return 0;
     int64_t b = s->begin[v], e = s->begin[v + 1];
     int64_t first = shell[s->ring[b] >> 2];
     for (int64_t i = b + 1; i < e; i++)
@@ -532,9 +573,11 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     workers = ready;                   /* fewer workers: the same certificates */
     for (int64_t sh = 0; sh < n_shells; sh++)
         w.origin[sh] = -1;
-    for (int64_t t = 0; t < s->m; t++)
-        if (w.origin[shell[t]] < 0)
+    for (int64_t t = 0, found = 0; t < s->m && found < n_shells; t++)
+        if (w.origin[shell[t]] < 0) {
             w.origin[shell[t]] = s->F[3 * t];
+            found++;
+        }
     int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
     parallel_workers(workers, face_blocks, centre_block, &w);
     for (int64_t sh = 0; sh < n_shells; sh++) {
@@ -594,12 +637,15 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
     s->F = F;
     s->n = n;
     s->m = m;
+    s->one_shell = n_shells == 1;
     s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
-    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s) < 0
+    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s, threads) < 0
         || certify(s, shell, n_shells, wanted, threads, lazy) < 0) {
         stars_free(s);
         return -1;
     }
+    free(s->xy);
+    s->xy = NULL;
     return 0;
 }
 
@@ -672,6 +718,7 @@ void stars_free(Stars *s)
     free(s->begin);
     free(s->ring);
     free(s->flag);
+    free(s->xy);
     free(s->shell_embedded);
     memset(s, 0, sizeof(*s));
 }
