@@ -134,13 +134,17 @@ def test_importing_massprops_leaves_the_garbage_collector_as_it_was():
 # user chose a count; importing massprops or its CLI as a library changes no environment variable.
 BLAS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "BLIS_NUM_THREADS")
 
-BLAS_PROBE = """
+# Records the BLAS settings numpy finds when it is first imported.
+AT_NUMPY = """
 import json, os, sys
 seen = {}
 def audit(event, args):
     if event == "import" and args[0] == "numpy" and "numpy" not in seen:
         seen["numpy"] = {name: os.environ.get(name) for name in %r}
 sys.addaudithook(audit)
+""" % (BLAS,)
+
+BLAS_PROBE = AT_NUMPY + """
 before = dict(os.environ)
 import massprops, massprops.cli
 from massprops import mass_properties
@@ -152,7 +156,7 @@ try:
 except SystemExit as exit:
     code = exit.code
 print(json.dumps({"imported_unchanged": imported == before, "at_numpy": seen["numpy"], "exit": code}))
-""" % (BLAS,)
+"""
 
 
 def _blas_probe(path, **env):
@@ -171,13 +175,7 @@ def test_importing_massprops_changes_no_environment_variable(tmp_path):
     assert probe["exit"] == 0
 
 
-CLI_BLAS_PROBE = """
-import json, os, sys
-seen = {}
-def audit(event, args):
-    if event == "import" and args[0] == "numpy" and "numpy" not in seen:
-        seen["numpy"] = {name: os.environ.get(name) for name in %r}
-sys.addaudithook(audit)
+CLI_BLAS_PROBE = AT_NUMPY + """
 from massprops.cli import main
 sys.argv = ["massprops", "props", "--format", "json", sys.argv[1]]
 try:
@@ -185,7 +183,7 @@ try:
 except SystemExit as exit:
     code = exit.code
 print(json.dumps({"at_numpy": seen["numpy"], "exit": code}))
-""" % (BLAS,)
+"""
 
 
 @pytest.mark.parametrize("chosen", [None, "2"])
