@@ -529,14 +529,14 @@ static void valid_block(void *ctx, int64_t block)
 {
     Coarse *co = ctx;
     int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
-    double *box = co->box[block];
-    for (int k = 0; k < 3; k++)
-        box[k] = INFINITY, box[3 + k] = -INFINITY;
+    /* the box in locals, stored once: the blocks' boxes share cache lines */
+    double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        co->home[t] = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
-        if (co->home[t] == HOME_NONE)
+        uint32_t home = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        co->home[t] = home;
+        if (home == HOME_NONE)
             continue;
         for (int k = 0; k < 3; k++) {
             box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
@@ -544,6 +544,7 @@ static void valid_block(void *ctx, int64_t block)
         }
         n++;
     }
+    memcpy(co->box[block], box, sizeof(box));
     co->count[block] = n;
 }
 

@@ -372,6 +372,17 @@ static inline void add_count(int64_t *counts, int64_t shell, int64_t count)
         __atomic_fetch_add(&counts[shell], count, __ATOMIC_RELAXED);
 }
 
+/* Add a shell's sums (local, then zeroed) to its row of the worker's sums. */
+static inline void add_sums(double *sums, int64_t shell, double *local)
+{
+    if (shell < 0)
+        return;
+    for (int j = 0; j < SUMS; j++) {
+        sums[shell * SUMS + j] += local[j];
+        local[j] = 0.0;
+    }
+}
+
 /* Sums for each shell's centre, and its face count. */
 static void centre_block(void *ctx, int worker, int64_t block)
 {
@@ -381,12 +392,16 @@ static void centre_block(void *ctx, int worker, int64_t block)
     double *sums = w->sums + (size_t)worker * w->n_shells * SUMS;
     int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
     int64_t current = -1, count = 0;
+    /* the current shell's sums, added to the worker's row when the shell changes (the rows of two
+     * workers may share a cache line: summing into them face by face made both cores wait on it) */
+    double local[SUMS] = {0};
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
         int64_t s = w->shell[t];
         if (!w->wanted[s])
             continue;
         if (s != current) {
             add_count(w->faces, current, count);
+            add_sums(sums, current, local);
             current = s;
             count = 0;
         }
@@ -401,15 +416,15 @@ static void centre_block(void *ctx, int worker, int64_t block)
         }
         double det = x[0] * (y[1] * z[2] - y[2] * z[1]) + x[1] * (y[2] * z[0] - y[0] * z[2])
                      + x[2] * (y[0] * z[1] - y[1] * z[0]);
-        double *row = sums + s * SUMS;
-        row[0] += det;
+        local[0] += det;
         for (int k = 0; k < 3; k++) {
             double corner = x[k] + y[k] + z[k];
-            row[1 + k] += det * corner;
-            row[4 + k] += corner;
+            local[1 + k] += det * corner;
+            local[4 + k] += corner;
         }
     }
     add_count(w->faces, current, count);
+    add_sums(sums, current, local);
 }
 
 static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
