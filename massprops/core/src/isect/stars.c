@@ -203,7 +203,7 @@ static int compare_keyed(const void *a, const void *b)
 /* ---- cycles -------------------------------------------------------------------------------- */
 
 /* Put v's incidences in cyclic order and its link in sc->link; 1 when v is manifold (above). */
-static int order_cycle(Stars *s, int64_t v, Scratch *sc)
+static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
 {
     int64_t b = s->begin[v], k = s->begin[v + 1] - b;
     if (k < 3)
@@ -212,6 +212,10 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc)
     for (int64_t i = 0; s->xy && i < k; i++) {
         sc->x[i] = (int64_t)(s->xy[b + i] & 0xFFFFFFFF);
         sc->y[i] = (int64_t)(s->xy[b + i] >> 32);
+        /* the link's coordinates, when a certificate reads them once the cycle is found (around a
+         * vertex of a subdivided mesh they lie anywhere in memory) */
+        if (prefetch)
+            __builtin_prefetch(s->V + 3 * sc->x[i]);
     }
     for (int64_t i = 0; !s->xy && i < k; i++) {
         uint32_t r = s->ring[b + i];
@@ -372,6 +376,16 @@ static inline void add_count(int64_t *counts, int64_t shell, int64_t count)
         __atomic_fetch_add(&counts[shell], count, __ATOMIC_RELAXED);
 }
 
+/* The corners of the face this many ahead are fetched early: on a subdivided mesh a face's corners
+ * lie anywhere in memory. */
+#define AHEAD 8
+static inline void prefetch_corners(const double *V, const int64_t *F, int64_t t)
+{
+    __builtin_prefetch(V + 3 * F[3 * t]);
+    __builtin_prefetch(V + 3 * F[3 * t + 1]);
+    __builtin_prefetch(V + 3 * F[3 * t + 2]);
+}
+
 /* Add a shell's sums (local, then zeroed) to its row of the worker's sums. */
 static inline void add_sums(double *sums, int64_t shell, double *local)
 {
@@ -407,6 +421,8 @@ static void centre_block(void *ctx, int worker, int64_t block)
         }
         count++;
         P o = V + 3 * w->origin[s];
+        if (t + AHEAD < end)
+            prefetch_corners(V, F, t + AHEAD);
         P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
         double x[3], y[3], z[3];
         for (int k = 0; k < 3; k++) {
@@ -460,6 +476,8 @@ static void sign_block(void *ctx, int worker, int64_t block)
         }
         if (seen == SIGN_MIXED)
             continue;
+        if (t + AHEAD < end)
+            prefetch_corners(V, F, t + AHEAD);
         int o = orient3d(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2], w->centre + 3 * s);
         if (o == 0 || (seen != SIGN_NONE && o != seen))
             seen = SIGN_MIXED;
@@ -522,7 +540,8 @@ static void vertex_block(void *ctx, int worker, int64_t block)
         int64_t sh = star_shell(s, w->shell, v);
         if (sh >= 0 && !w->wanted[sh])
             continue;
-        int manifold = order_cycle(s, v, sc);
+        int uniform = sh >= 0 && (w->sign[sh] == 1 || w->sign[sh] == -1);
+        int manifold = order_cycle(s, v, sc, uniform || !w->lazy);
         if (manifold)
             s->flag[v] |= STAR_CYCLE;
         if (sh < 0 || !manifold) {
