@@ -326,9 +326,8 @@ static void axis_block(void *ctx, int64_t block)
 {
     Build *w = ctx;
     int64_t t0 = block * BUILD_BLOCK, t1 = t0 + BUILD_BLOCK < w->m ? t0 + BUILD_BLOCK : w->m, n = 0, hubs = 0;
-    double *box = w->box[block];
-    for (int k = 0; k < 3; k++)
-        box[k] = INFINITY, box[3 + k] = -INFINITY;
+    /* the box in locals, stored once: the blocks' boxes share cache lines */
+    double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
         w->axis[t] = -1;
         if (!w->take[t])
@@ -353,6 +352,7 @@ static void axis_block(void *ctx, int64_t block)
         n++;
         hubs += w->stars && hub_of(w->stars, w->F, t) >= 0;
     }
+    memcpy(w->box[block], box, sizeof(box));
     w->count[block] = n;
     w->hubs[block] = hubs;
 }

@@ -78,7 +78,8 @@
 #define PATCH_BLOCK 16384
 
 typedef struct {
-    double lo, hi;
+    double lo, hi;            /* along the projection's first axis */
+    double low, high;         /* along its second */
     int64_t i;
 } Segment;
 
@@ -228,10 +229,40 @@ static int apart(int axis, P p, P q, P r, P s)
     return c != 0 && c == d;
 }
 
-static int compare_segments(const void *x, const void *y)
+/* The segments x[0..b) sorted by lo, in x or y (the other is scratch): runs of 16 by insertion, then
+ * merged (glibc's qsort, with a call per comparison, was a tenth of the search on small meshes). */
+static Segment *sort_segments(Segment *x, Segment *y, int64_t b)
 {
-    double a = ((const Segment *)x)->lo, b = ((const Segment *)y)->lo;
-    return (a > b) - (a < b);
+    const int64_t run = 16;
+    for (int64_t start = 0; start < b; start += run) {
+        int64_t stop = start + run < b ? start + run : b;
+        for (int64_t i = start + 1; i < stop; i++) {
+            Segment key = x[i];
+            int64_t j = i;
+            while (j > start && x[j - 1].lo > key.lo) {
+                x[j] = x[j - 1];
+                j--;
+            }
+            x[j] = key;
+        }
+    }
+    Segment *src = x, *dst = y;
+    for (int64_t width = run; width < b; width *= 2) {
+        for (int64_t start = 0; start < b; start += 2 * width) {
+            int64_t mid = start + width < b ? start + width : b, stop = start + 2 * width < b ? start + 2 * width : b;
+            int64_t i = start, j = mid, o = start;
+            while (i < mid && j < stop)
+                dst[o++] = src[j].lo < src[i].lo ? src[j++] : src[i++];
+            while (i < mid)
+                dst[o++] = src[i++];
+            while (j < stop)
+                dst[o++] = src[j++];
+        }
+        Segment *t = src;
+        src = dst;
+        dst = t;
+    }
+    return src;
 }
 
 /* (d): the projected loop loop[0..b) is a simple polygon. */
@@ -239,29 +270,27 @@ static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis
 {
     int u = axis == 0 ? 1 : 0, w = axis == 2 ? 1 : 2;
     for (int64_t i = 0; i < b; i++) {
-        P p = V + 3 * loop[i], q = V + 3 * loop[i + 1 == b ? 0 : i + 1], r = V + 3 * loop[(i + 2) % b];
+        int64_t i1 = i + 1 == b ? 0 : i + 1, i2 = i1 + 1 == b ? 0 : i1 + 1;
+        P p = V + 3 * loop[i], q = V + 3 * loop[i1], r = V + 3 * loop[i2];
         if (p[u] == q[u] && p[w] == q[w])
             return 0;
         if (!turn_ok(axis, p, q, r, u, w))
             return 0;
-        sc->segments[i] = (Segment){dmin(p[u], q[u]), dmax(p[u], q[u]), i};
+        sc->segments[i] = (Segment){dmin(p[u], q[u]), dmax(p[u], q[u]), dmin(p[w], q[w]), dmax(p[w], q[w]), i};
     }
     if (b <= 3)
         return 1;
-    memcpy(sc->sorted, sc->segments, sizeof(Segment) * b);
-    qsort(sc->sorted, b, sizeof(Segment), compare_segments);
+    const Segment *sorted = sort_segments(sc->segments, sc->sorted, b);
     for (int64_t x = 0; x < b; x++) {
-        const Segment *s = &sc->sorted[x];
-        int64_t i = s->i;
-        P p = V + 3 * loop[i], q = V + 3 * loop[i + 1 == b ? 0 : i + 1];
-        double w0 = dmin(p[w], q[w]), w1 = dmax(p[w], q[w]);
-        for (int64_t y = x + 1; y < b && sc->sorted[y].lo <= s->hi; y++) {
-            int64_t j = sc->sorted[y].i;
-            if (j == (i + 1) % b || i == (j + 1) % b)
+        const Segment *s = &sorted[x];
+        int64_t i = s->i, after = i + 1 == b ? 0 : i + 1, before = i == 0 ? b - 1 : i - 1;
+        for (int64_t y = x + 1; y < b && sorted[y].lo <= s->hi; y++) {
+            const Segment *o = &sorted[y];
+            int64_t j = o->i;
+            if (j == after || j == before || o->high < s->low || o->low > s->high)
                 continue;
+            P p = V + 3 * loop[i], q = V + 3 * loop[after];
             P r = V + 3 * loop[j], t = V + 3 * loop[j + 1 == b ? 0 : j + 1];
-            if (dmax(r[w], t[w]) < w0 || dmin(r[w], t[w]) > w1)
-                continue;
             if (!apart(axis, p, q, r, t))
                 return 0;
         }
@@ -362,29 +391,38 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
                 ok = 0;
                 break;
             }
-            P pv = V + 3 * v;
-            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2), first_above = 0, last_above = 0;
-            int64_t upward = 0;
+            /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
+             * leaves the patch goes to the far end of the run's first face), or all of them */
+            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
             for (int64_t j = 0; j < degree; j++) {
                 uint32_t r = st->ring[b + j];
-                int64_t face = r >> 2;
-                int corner = r & 3;
-                int64_t x = F[3 * face + (corner == 2 ? 0 : corner + 1)];
-                int in = bit(sc->face_bits, face);
+                int in = bit(sc->face_bits, r >> 2);
                 if (in && !last_in) {
                     runs++;
-                    edge = x;
+                    int corner = r & 3;
+                    edge = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
                 }
                 outside += !in;
                 last_in = in;
-                int above = V[3 * x + y] > pv[y];
-                if (j == 0)
-                    first_above = above;
-                else
-                    upward += !last_above && above;
-                last_above = above;
             }
-            upward += !last_above && first_above;
+            /* an interior vertex: the star condition (2) along the axis (its link's coordinates) */
+            int64_t upward = 0;
+            if (outside == 0) {
+                P pv = V + 3 * v;
+                int first_above = 0, last_above = 0;
+                for (int64_t j = 0; j < degree; j++) {
+                    uint32_t r = st->ring[b + j];
+                    int corner = r & 3;
+                    int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
+                    int above = V[3 * x + y] > pv[y];
+                    if (j == 0)
+                        first_above = above;
+                    else
+                        upward += !last_above && above;
+                    last_above = above;
+                }
+                upward += !last_above && first_above;
+            }
             if (outside == 0)
                 ok = upward == 1;
             else if (runs == 1 && n_boundary < k + 2) {
@@ -529,14 +567,14 @@ static void valid_block(void *ctx, int64_t block)
 {
     Coarse *co = ctx;
     int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
-    double *box = co->box[block];
-    for (int k = 0; k < 3; k++)
-        box[k] = INFINITY, box[3 + k] = -INFINITY;
+    /* the box in locals, stored once: the blocks' boxes share cache lines */
+    double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        co->home[t] = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
-        if (co->home[t] == HOME_NONE)
+        uint32_t home = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        co->home[t] = home;
+        if (home == HOME_NONE)
             continue;
         for (int k = 0; k < 3; k++) {
             box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
@@ -544,6 +582,7 @@ static void valid_block(void *ctx, int64_t block)
         }
         n++;
     }
+    memcpy(co->box[block], box, sizeof(box));
     co->count[block] = n;
 }
 

@@ -756,7 +756,10 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
             free(take);
             return -1;
         }
-        for (int64_t t = 0; t < m; t++)
+        /* one shell (labels are checked by the caller): no label read */
+        for (int64_t t = 0; n_shells == 1 && t < m && !wanted[0]; t++)
+            wanted[0] = active[t] != 0;
+        for (int64_t t = 0; n_shells > 1 && t < m; t++)
             wanted[shell[t]] |= active[t];
         /* out of memory for the certificates: every pair is tested */
         have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
@@ -764,7 +767,12 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
     }
     /* Faces whose every pair is certified take no part unless other shells may meet them. */
     int64_t taken = 0;
-    for (int64_t t = 0; t < m; t++) {
+    int keep_all = n_shells == 1 && (between || !have_stars || !stars->shell_embedded[0]);
+    for (int64_t t = 0; keep_all && t < m; t++) {
+        take[t] = active[t] != 0;
+        taken += take[t];
+    }
+    for (int64_t t = 0; !keep_all && t < m; t++) {
         take[t] = active[t] && (between || !have_stars || !stars->shell_embedded[shell[t]]);
         taken += take[t];
     }

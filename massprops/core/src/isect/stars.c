@@ -203,7 +203,7 @@ static int compare_keyed(const void *a, const void *b)
 /* ---- cycles -------------------------------------------------------------------------------- */
 
 /* Put v's incidences in cyclic order and its link in sc->link; 1 when v is manifold (above). */
-static int order_cycle(Stars *s, int64_t v, Scratch *sc)
+static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
 {
     int64_t b = s->begin[v], k = s->begin[v + 1] - b;
     if (k < 3)
@@ -212,6 +212,10 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc)
     for (int64_t i = 0; s->xy && i < k; i++) {
         sc->x[i] = (int64_t)(s->xy[b + i] & 0xFFFFFFFF);
         sc->y[i] = (int64_t)(s->xy[b + i] >> 32);
+        /* the link's coordinates, when a certificate reads them once the cycle is found (around a
+         * vertex of a subdivided mesh they lie anywhere in memory) */
+        if (prefetch)
+            __builtin_prefetch(s->V + 3 * sc->x[i]);
     }
     for (int64_t i = 0; !s->xy && i < k; i++) {
         uint32_t r = s->ring[b + i];
@@ -372,6 +376,27 @@ static inline void add_count(int64_t *counts, int64_t shell, int64_t count)
         __atomic_fetch_add(&counts[shell], count, __ATOMIC_RELAXED);
 }
 
+/* The corners of the face this many ahead are fetched early: on a subdivided mesh a face's corners
+ * lie anywhere in memory. */
+#define AHEAD 8
+static inline void prefetch_corners(const double *V, const int64_t *F, int64_t t)
+{
+    __builtin_prefetch(V + 3 * F[3 * t]);
+    __builtin_prefetch(V + 3 * F[3 * t + 1]);
+    __builtin_prefetch(V + 3 * F[3 * t + 2]);
+}
+
+/* Add a shell's sums (local, then zeroed) to its row of the worker's sums. */
+static inline void add_sums(double *sums, int64_t shell, double *local)
+{
+    if (shell < 0)
+        return;
+    for (int j = 0; j < SUMS; j++) {
+        sums[shell * SUMS + j] += local[j];
+        local[j] = 0.0;
+    }
+}
+
 /* Sums for each shell's centre, and its face count. */
 static void centre_block(void *ctx, int worker, int64_t block)
 {
@@ -381,17 +406,23 @@ static void centre_block(void *ctx, int worker, int64_t block)
     double *sums = w->sums + (size_t)worker * w->n_shells * SUMS;
     int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
     int64_t current = -1, count = 0;
+    /* the current shell's sums, added to the worker's row when the shell changes (the rows of two
+     * workers may share a cache line: summing into them face by face made both cores wait on it) */
+    double local[SUMS] = {0};
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
         int64_t s = w->shell[t];
         if (!w->wanted[s])
             continue;
         if (s != current) {
             add_count(w->faces, current, count);
+            add_sums(sums, current, local);
             current = s;
             count = 0;
         }
         count++;
         P o = V + 3 * w->origin[s];
+        if (t + AHEAD < end)
+            prefetch_corners(V, F, t + AHEAD);
         P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], c = V + 3 * F[3 * t + 2];
         double x[3], y[3], z[3];
         for (int k = 0; k < 3; k++) {
@@ -401,15 +432,15 @@ static void centre_block(void *ctx, int worker, int64_t block)
         }
         double det = x[0] * (y[1] * z[2] - y[2] * z[1]) + x[1] * (y[2] * z[0] - y[0] * z[2])
                      + x[2] * (y[0] * z[1] - y[1] * z[0]);
-        double *row = sums + s * SUMS;
-        row[0] += det;
+        local[0] += det;
         for (int k = 0; k < 3; k++) {
             double corner = x[k] + y[k] + z[k];
-            row[1 + k] += det * corner;
-            row[4 + k] += corner;
+            local[1 + k] += det * corner;
+            local[4 + k] += corner;
         }
     }
     add_count(w->faces, current, count);
+    add_sums(sums, current, local);
 }
 
 static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
@@ -445,6 +476,8 @@ static void sign_block(void *ctx, int worker, int64_t block)
         }
         if (seen == SIGN_MIXED)
             continue;
+        if (t + AHEAD < end)
+            prefetch_corners(V, F, t + AHEAD);
         int o = orient3d(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2], w->centre + 3 * s);
         if (o == 0 || (seen != SIGN_NONE && o != seen))
             seen = SIGN_MIXED;
@@ -507,7 +540,8 @@ static void vertex_block(void *ctx, int worker, int64_t block)
         int64_t sh = star_shell(s, w->shell, v);
         if (sh >= 0 && !w->wanted[sh])
             continue;
-        int manifold = order_cycle(s, v, sc);
+        int uniform = sh >= 0 && (w->sign[sh] == 1 || w->sign[sh] == -1);
+        int manifold = order_cycle(s, v, sc, uniform || !w->lazy);
         if (manifold)
             s->flag[v] |= STAR_CYCLE;
         if (sh < 0 || !manifold) {
