@@ -229,41 +229,8 @@ static int apart(int axis, P p, P q, P r, P s)
     return c != 0 && c == d;
 }
 
-/* The segments x[0..b) sorted by lo, in x or y (the other is scratch): runs of 16 by insertion, then
- * merged (glibc's qsort, with a call per comparison, was a tenth of the search on small meshes). */
-static Segment *sort_segments(Segment *x, Segment *y, int64_t b)
-{
-    const int64_t run = 16;
-    for (int64_t start = 0; start < b; start += run) {
-        int64_t stop = start + run < b ? start + run : b;
-        for (int64_t i = start + 1; i < stop; i++) {
-            Segment key = x[i];
-            int64_t j = i;
-            while (j > start && x[j - 1].lo > key.lo) {
-                x[j] = x[j - 1];
-                j--;
-            }
-            x[j] = key;
-        }
-    }
-    Segment *src = x, *dst = y;
-    for (int64_t width = run; width < b; width *= 2) {
-        for (int64_t start = 0; start < b; start += 2 * width) {
-            int64_t mid = start + width < b ? start + width : b, stop = start + 2 * width < b ? start + 2 * width : b;
-            int64_t i = start, j = mid, o = start;
-            while (i < mid && j < stop)
-                dst[o++] = src[j].lo < src[i].lo ? src[j++] : src[i++];
-            while (i < mid)
-                dst[o++] = src[i++];
-            while (j < stop)
-                dst[o++] = src[j++];
-        }
-        Segment *t = src;
-        src = dst;
-        dst = t;
-    }
-    return src;
-}
+/* The segments sorted by lo (in the array given or the scratch one). */
+RUN_MERGE_SORT(sort_segments, Segment, lo)
 
 /* (d): the projected loop loop[0..b) is a simple polygon. */
 static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis, Scratch *sc)

@@ -432,40 +432,8 @@ static int scratch_reserve(Scratch *sc, int64_t k)
     return 0;
 }
 
-/* Sort keys[0..k) by x, stably: insertion sort for short runs, bottom-up merges above (tmp: k). */
-static SortKey *sort_keys(SortKey *keys, SortKey *tmp, int64_t k)
-{
-    const int64_t width0 = 16;
-    for (int64_t start = 0; start < k; start += width0) {
-        int64_t stop = start + width0 < k ? start + width0 : k;
-        for (int64_t i = start + 1; i < stop; i++) {
-            SortKey x = keys[i];
-            int64_t j = i;
-            while (j > start && keys[j - 1].x > x.x) {
-                keys[j] = keys[j - 1];
-                j--;
-            }
-            keys[j] = x;
-        }
-    }
-    SortKey *src = keys, *dst = tmp;
-    for (int64_t width = width0; width < k; width *= 2) {
-        for (int64_t start = 0; start < k; start += 2 * width) {
-            int64_t mid = start + width < k ? start + width : k, stop = start + 2 * width < k ? start + 2 * width : k;
-            int64_t i = start, j = mid, o = start;
-            while (i < mid && j < stop)
-                dst[o++] = src[j].x < src[i].x ? src[j++] : src[i++];
-            while (i < mid)
-                dst[o++] = src[i++];
-            while (j < stop)
-                dst[o++] = src[j++];
-        }
-        SortKey *x = src;
-        src = dst;
-        dst = x;
-    }
-    return src;
-}
+/* Keys sorted by x, stably (in the array given or tmp). */
+RUN_MERGE_SORT(sort_keys, SortKey, x)
 
 /* The pairs of run [e, run) whose boxes meet, by a sweep: the faces sorted by their boxes' low
  * end along one axis, each face meets on that axis exactly the faces after it whose low end is at
