@@ -181,7 +181,8 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
     mesh, checks, labels, welded, repeated, weights = _closed(mesh, path, warnings)
     solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
                    self_intersection=self_intersection, weights=weights)
-    moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order, frame=solid.frame)
+    moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order, frame=solid.frame,
+                              scaled=solid.scaled)
     warnings += solid.warnings
     moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)

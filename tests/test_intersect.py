@@ -571,3 +571,22 @@ def test_parts_far_apart_under_one_label_meet_themselves_exactly_where_pairs_of_
     reported, _ = search_pairs(np.array(points, dtype=float), faces)
     assert reported == crossing_pairs(points, faces)
     assert bool(reported) == (spike == 20)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(*[st.sampled_from([0.0, 1e-70, -3e-65, 0.1, 0.3, -1.7, 2.5, 1e3, 7.25e-3])] * 3),
+                min_size=3, max_size=12),
+       st.sampled_from([1.0, 2.0 ** -1000, 3.0e200, 1e-300]), st.randoms(use_true_random=False))
+def test_moments_from_the_checks_scaled_vertices_are_those_of_the_vertices(points, scale, rng):
+    # The exact checks hand their scaled vertices to the integration (when nothing was snapped):
+    # every sum must be bit for bit the one the integration finds by scaling the vertices itself.
+    from massprops.core import integrate
+
+    vertices = np.array(points, dtype=np.float64) * scale
+    n = vertices.shape[0]
+    faces = np.array([[rng.randrange(n) for _ in range(3)] for _ in range(2 * n)], dtype=np.int64)
+    geometry = ExactGeometry(vertices)
+    given_scaled = integrate(vertices, faces, frame=geometry.frame, scaled=geometry.unsnapped)
+    own = integrate(vertices, faces, frame=geometry.frame)
+    for name in ("det_sum", "det_error", "first", "first_error", "second", "second_error", "area2"):
+        assert np.array_equal(getattr(given_scaled, name), getattr(own, name)), name

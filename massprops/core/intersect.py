@@ -99,6 +99,9 @@ class ExactGeometry:
         as zero, and a bound on each one's move (mesh units).
     frame : massprops.core.frame.Frame
         The vertices' integration frame (:func:`massprops.core.frame.frame_of`).
+    unsnapped : ndarray or None
+        ``vertices`` when they are exactly what the integration computes in
+        ``frame`` (nothing snapped, the scale a normal power of two), else None.
     """
 
     def __init__(self, vertices):
@@ -111,6 +114,9 @@ class ExactGeometry:
         self.moved = np.full(self.moved_vertices.size, math.ldexp(1.8, frame.scale_exp - 200))
         self.vertices = np.asarray(scaled)
         self.frame = frame
+        # Both scale as (x - reference) * 2**-scale_exp, one rounding, when that power is a normal double.
+        same = self.moved_vertices.size == 0 and -1023 <= frame.scale_exp <= 1022
+        self.unsnapped = self.vertices if same else None
 
     def zero_area(self, faces):
         """Flags (m,) of the faces whose three corners are collinear or coincide, exactly."""

@@ -66,7 +66,7 @@ class Moments:
                        self.faces, self.refined_faces, self.exact_faces)
 
 
-def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame=None):
+def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame=None, scaled=None):
     """Integrate the volume moments of a closed, consistently wound surface.
 
     Parameters
@@ -85,6 +85,10 @@ def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame
         area), so the sums become surface integrals (:mod:`massprops.shell`).
     frame : Frame, optional
         :func:`massprops.core.frame.frame_of` of these vertices, if already found.
+    scaled : ndarray, shape (n, 3), float64, optional
+        The vertices in ``frame`` exactly as the core scales them
+        (:attr:`massprops.core.intersect.ExactGeometry.unsnapped`), if at hand:
+        used instead of scaling them again.
 
     Returns
     -------
@@ -106,7 +110,7 @@ def integrate(vertices, faces, *, order=2, weights=None, measure="volume", frame
     frame = frame_of(vertices) if frame is None else frame
     arguments = (vertices, faces, frame.reference, frame.scale_exp, frame.radius, order, measure == "area",
                  weights, threads_for(faces.shape[0], _PARALLEL_ABOVE))
-    sums = _core.integrate(*arguments, False)
+    sums = _core.integrate(*arguments, False, scaled)
     area2 = sums["area2"]
     if measure == "volume" and sums["abs_sum"] > _CANCELLATION_LIMIT * abs(sums["det_sum"]):
         # The tetrahedra cancel heavily: redo the sums (weighted or not) in double-double.

@@ -78,7 +78,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
         return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
     if n_shells == 1:
         return Solid(mesh, {"self_intersection": "none"}, swept_volume=_snapped(geometry, vertices, faces),
-                     frame=geometry.frame)
+                     frame=geometry.frame, scaled=geometry.unsnapped)
     return _nested(mesh, labels, n_shells, geometry, path, repair)
 
 

@@ -75,6 +75,9 @@ class Solid:
     frame : Frame or None
         The integration frame of ``mesh.vertices`` (:func:`massprops.core.frame.frame_of`) when the
         checks already found it.
+    scaled : ndarray or None
+        ``mesh.vertices`` in ``frame`` exactly as the integration scales them, when the checks
+        already have them (:attr:`massprops.core.intersect.ExactGeometry.unsnapped`).
     source : TriangleMesh or None
         The closed soup the solid was found from, when ``mesh`` holds cut pieces.
     """
@@ -89,6 +92,7 @@ class Solid:
     naive_six: tuple = (0.0, 0.0)
     frame: object = None
     source: object = None
+    scaled: object = None
 
 
 def without_unused_vertices(mesh):

@@ -43,7 +43,7 @@ typedef struct {
     const KernelInput *in;
     Scaling scaling;
     BlockResult *blocks;
-    double *scaled;                   /* n x 3: the vertices in the frame, computed once */
+    const double *scaled;             /* n x 3: the vertices in the frame, computed once (or given) */
 } Work;
 
 #define VERTEX_BLOCK 65536
@@ -51,11 +51,12 @@ typedef struct {
 static void scale_block(void *arg, int64_t block)
 {
     Work *w = arg;
+    double *out = (double *)w->scaled;
     int64_t v, last = (block + 1) * VERTEX_BLOCK < w->in->n ? (block + 1) * VERTEX_BLOCK : w->in->n;
     int i;
     for (v = block * VERTEX_BLOCK; v < last; v++)
         for (i = 0; i < 3; i++)
-            w->scaled[3 * v + i] = scaled(w->in->vertices[3 * v + i], w->in->reference[i], &w->scaling);
+            out[3 * v + i] = scaled(w->in->vertices[3 * v + i], w->in->reference[i], &w->scaling);
 }
 
 void *kernel_start(const KernelInput *in, KernelResult *out, Scaling *scaling, int64_t *blocks, size_t block_size,
@@ -314,15 +315,18 @@ int integrate_faces(const KernelInput *in, KernelResult *out, Failure *failure)
     int q, l;
     if (!(w.blocks = kernel_start(in, out, &w.scaling, &blocks, sizeof *w.blocks, failure)))
         return -1;
-    w.scaled = malloc((size_t)(in->n > 0 ? in->n : 1) * 3 * sizeof(double));
-    if (!w.scaled) {
+    /* the caller's copy when it has one (the exact checks scale the same vertices the same way) */
+    double *own = in->scaled ? NULL : malloc((size_t)(in->n > 0 ? in->n : 1) * 3 * sizeof(double));
+    if (!in->scaled && !own) {
         free(w.blocks);
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
-    parallel_blocks(in->threads, (in->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, scale_block, &w);
+    w.scaled = in->scaled ? in->scaled : own;
+    if (own)
+        parallel_blocks(in->threads, (in->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, scale_block, &w);
     parallel_blocks(in->threads, blocks, run_block, &w);
-    free(w.scaled);
+    free(own);
     for (q = 0; q < SUMMED; q++)
         exact_init(&summed[q]);
     for (q = 0; q < PLAIN; q++)

@@ -15,6 +15,7 @@ typedef struct {
     int faces32;
     int64_t m;
     const double *weights;        /* m factors, taken as exact, or NULL */
+    const double *scaled;         /* n x 3: the vertices already scaled as scaled() does, or NULL */
     double reference[3];
     int scale_exp;
     double radius;

@@ -421,16 +421,17 @@ static int kernel_input(PyObject *vertex_object, PyObject *face_object, PyObject
 static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"vertices", "faces", "reference", "scale_exp", "radius", "order", "area", "weights",
-                            "threads", "double_double", NULL};
-    PyObject *vertex_object, *face_object, *reference, *weight_object = Py_None;
-    Py_buffer vertices, faces, weights;
+                            "threads", "double_double", "scaled", NULL};
+    PyObject *vertex_object, *face_object, *reference, *weight_object = Py_None, *scaled_object = Py_None;
+    Py_buffer vertices, faces, weights, scaled;
     KernelInput in;
     KernelResult out;
     Failure failure = {0};
     int scale_exp, order, area, threads, dd, status;
     double radius;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO!idipOip", names, &vertex_object, &face_object, &PyTuple_Type,
-                                     &reference, &scale_exp, &radius, &order, &area, &weight_object, &threads, &dd))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO!idipOip|O", names, &vertex_object, &face_object,
+                                     &PyTuple_Type, &reference, &scale_exp, &radius, &order, &area, &weight_object,
+                                     &threads, &dd, &scaled_object))
         return NULL;
     if (kernel_input(vertex_object, face_object, reference, scale_exp, radius, &in, &vertices, &faces, 3) != 0)
         return NULL;
@@ -452,11 +453,33 @@ static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs
         }
         in.weights = weights.buf;
     }
+    /* the vertices already in the frame (n x 3), used as they are: the caller vouches they are scaled() */
+    if (scaled_object != Py_None) {
+        if (!get_array(scaled_object, &scaled, ARRAY_F64, "scaled")) {
+            if (weight_object != Py_None)
+                PyBuffer_Release(&weights);
+            PyBuffer_Release(&vertices);
+            PyBuffer_Release(&faces);
+            return NULL;
+        }
+        if (scaled.len != vertices.len) {
+            PyBuffer_Release(&scaled);
+            if (weight_object != Py_None)
+                PyBuffer_Release(&weights);
+            PyBuffer_Release(&vertices);
+            PyBuffer_Release(&faces);
+            PyErr_SetString(PyExc_ValueError, "scaled: expected one row per vertex");
+            return NULL;
+        }
+        in.scaled = scaled.buf;
+    }
     Py_BEGIN_ALLOW_THREADS
     status = dd ? integrate_faces_dd(&in, &out, &failure) : integrate_faces(&in, &out, &failure);
     Py_END_ALLOW_THREADS
     if (weight_object != Py_None)
         PyBuffer_Release(&weights);
+    if (scaled_object != Py_None)
+        PyBuffer_Release(&scaled);
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&faces);
     if (status)
