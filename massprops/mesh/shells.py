@@ -129,11 +129,11 @@ def _nested(mesh, labels, n_shells, geometry, path, repair):
     naive = (float(six[live].sum()), float(bound[live].sum()))
     swept = _snapped(geometry, vertices, faces)
     if not resolved and not negative and not zero.any() and not flipped and faces is mesh.faces:
-        return Solid(mesh, checks, tuple(warnings), swept, frame=geometry.frame)
+        return Solid(mesh, checks, tuple(warnings), swept, frame=geometry.frame, scaled=geometry.unsnapped)
     kept = faces[np.isin(labels, [u[0] for u in keep])].astype(np.int64)
     extra = dict(resolved=tuple(resolved), naive_six=naive) if resolved else {}
     return Solid(mesh.with_faces(kept), checks, tuple(warnings), swept, faces[zero[labels]], flipped, **extra,
-                 frame=geometry.frame)
+                 frame=geometry.frame, scaled=geometry.unsnapped)
 
 
 def _decide(units, classes):
