@@ -19,7 +19,7 @@ from massprops.mesh import arrangement
 from massprops.mesh.surface import TriangleMesh
 from massprops.validation import solids
 from oracle import within_bounds
-from test_arrangement import _ROTATIONS, _box, _rotated, box_soup, grid_oracle, soup
+from test_arrangement import _ROTATIONS, _box, _rotated, _turned, box_soup, grid_oracle, soup
 from conftest import random_rotation
 
 
@@ -124,8 +124,7 @@ def test_box_unions_agree_with_the_exact_path_and_the_oracle(boxes, rotation, ra
             return
         mesh = box_soup(boxes)
         matrix = _ROTATIONS[rotation]
-        vertices = np.array([[float(sum(matrix[i][k] * int(v[k]) for k in range(3))) for i in range(3)]
-                             for v in mesh.vertices.tolist()])
+        vertices = _turned(mesh, matrix)
         faces = mesh.faces.tolist()
         random.shuffle(faces)
         result = mass_properties(soup(TriangleMesh(vertices, np.array(faces, dtype=np.int64))))
