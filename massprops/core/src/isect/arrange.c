@@ -173,23 +173,35 @@ static int normalise(Pt *p)
     return 1;
 }
 
-static void make_vertex(Pt *p, int64_t v, int l1, int l2)
+/* A fresh point of this kind on lines l1, l2, not yet output. */
+static void start_point(Pt *p, int kind, int l1, int l2)
 {
     memset(p, 0, sizeof(*p));
-    p->kind = PT_V;
-    p->a = v;
+    p->kind = (int8_t)kind;
     p->l1 = l1, p->l2 = l2;
     p->out = -1;
+}
+
+/* The point o + D / W, o the coordinates of input vertex `origin` (W and D set): X = o W + D, normalised. */
+static int finish_point(Pt *p, int64_t origin, const double *o)
+{
+    p->origin = origin;
+    for (int k = 0; k < 3; k++)
+        p->X[k] = fx_add(fx_mul(fx_c(o[k]), p->W), p->D[k]);
+    return normalise(p);
+}
+
+static void make_vertex(Pt *p, int64_t v, int l1, int l2)
+{
+    start_point(p, PT_V, l1, l2);
+    p->a = v;
 }
 
 /* The line through P, Q with the plane of g: X = P W + sP (Q - P), W = sP - sQ. */
 static int make_lpi(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t g, int l1, int l2)
 {
-    memset(p, 0, sizeof(*p));
-    p->kind = PT_LPI;
+    start_point(p, PT_LPI, l1, l2);
     p->a = P, p->b = Q, p->c = g;
-    p->l1 = l1, p->l2 = l2;
-    p->out = -1;
     const double *x = vx(s, P), *y = vx(s, Q);
     p->sg[0] = (int8_t)plane_side(s, g, x);
     p->sg[1] = (int8_t)plane_side(s, g, y);
@@ -198,34 +210,25 @@ static int make_lpi(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t g, int
     p->s[0] = plane_level(s, g, x);
     p->s[1] = plane_level(s, g, y);
     p->W = fx_sub(p->s[0], p->s[1]);
-    p->origin = P;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 3; k++)
         p->D[k] = fx_mul(p->s[0], fx_diff(y[k], x[k]));
-        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), p->D[k]);
-    }
-    return normalise(p);
+    return finish_point(p, P, x);
 }
 
 /* Lines PQ and RS of one plane, met in the projection on axes i, j. */
 static int make_ee(const Shared *s, Pt *p, int64_t P, int64_t Q, int64_t R, int64_t S, int i, int j, int l1, int l2)
 {
-    memset(p, 0, sizeof(*p));
-    p->kind = PT_EE;
+    start_point(p, PT_EE, l1, l2);
     p->a = P, p->b = Q, p->c = R, p->d = S;
-    p->l1 = l1, p->l2 = l2;
-    p->out = -1;
     const double *x = vx(s, P), *y = vx(s, Q), *r = vx(s, R), *q = vx(s, S);
     fx di = fx_diff(y[i], x[i]), dj = fx_diff(y[j], x[j]);
     fx ei = fx_diff(q[i], r[i]), ej = fx_diff(q[j], r[j]);
     fx ri = fx_diff(r[i], x[i]), rj = fx_diff(r[j], x[j]);
     p->W = fx_sub(fx_mul(di, ej), fx_mul(dj, ei));
     fx num = fx_sub(fx_mul(ri, ej), fx_mul(rj, ei));
-    p->origin = P;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 3; k++)
         p->D[k] = fx_mul(num, fx_diff(y[k], x[k]));
-        p->X[k] = fx_add(fx_mul(fx_c(x[k]), p->W), p->D[k]);
-    }
-    return normalise(p);
+    return finish_point(p, P, x);
 }
 
 static void fx_cross(const fx *u, const fx *w, fx *out)
@@ -243,11 +246,8 @@ static fx fx_dot(const fx *u, const fx *w)
 /* The planes of faces f, g, h, about the origin a_f (so the offsets are small where the faces are). */
 static int make_tpi(const Shared *s, Pt *p, int64_t f, int64_t g, int64_t h, int l1, int l2)
 {
-    memset(p, 0, sizeof(*p));
-    p->kind = PT_TPI;
+    start_point(p, PT_TPI, l1, l2);
     p->a = f, p->b = g, p->c = h;
-    p->l1 = l1, p->l2 = l2;
-    p->out = -1;
     const double *o = corner(s, f, 0);
     const fx *n1 = s->normal + 3 * f, *n2 = s->normal + 3 * g, *n3 = s->normal + 3 * h;
     fx d2 = plane_level(s, g, o), d3 = plane_level(s, h, o);
@@ -258,21 +258,15 @@ static int make_tpi(const Shared *s, Pt *p, int64_t f, int64_t g, int64_t h, int
     fx_cross(n3, n1, c31);
     fx_cross(n1, n2, c12);
     p->W = fx_dot(n1, c23);
-    p->origin = s->F[3 * f];
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 3; k++)
         p->D[k] = fx_add(fx_mul(d2, c31[k]), fx_mul(d3, c12[k]));
-        p->X[k] = fx_add(fx_mul(fx_c(o[k]), p->W), p->D[k]);
-    }
-    return normalise(p);
+    return finish_point(p, s->F[3 * f], o);
 }
 
 /* The point of the plane n . (q - a) = 0 over (x, y) on axes i, j (dropping axis `drop`). */
 static int make_proj_n(Pt *p, const fx *n, const double *a, int drop, int i, int j, double x, double y)
 {
-    memset(p, 0, sizeof(*p));
-    p->kind = PT_PROJ;
-    p->l1 = p->l2 = -1;
-    p->out = -1;
+    start_point(p, PT_PROJ, -1, -1);
     p->W = n[drop];
     p->X[i] = fx_mul(fx_c(x), n[drop]);
     p->X[j] = fx_mul(fx_c(y), n[drop]);
