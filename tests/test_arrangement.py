@@ -261,10 +261,16 @@ def _rotated(exact, rotation):
     return {"volume": exact["volume"], "center_of_mass": g, "inertia_com": inertia}
 
 
-def _turned(mesh, rotation):
-    """The integer vertices of ``mesh`` turned by the rational ``rotation``, each coordinate rounded once."""
-    return np.array([[float(sum(rotation[i][k] * int(v[k]) for k in range(3))) for i in range(3)]
-                     for v in mesh.vertices.tolist()])
+def _turned_soup(boxes, rotation, random=None):
+    """:func:`box_soup` of ``boxes`` turned by the rational ``rotation`` (each coordinate rounded once), its
+    faces shuffled by ``random`` if given."""
+    mesh = box_soup(boxes)
+    vertices = np.array([[float(sum(rotation[i][k] * int(v[k]) for k in range(3))) for i in range(3)]
+                         for v in mesh.vertices.tolist()])
+    faces = mesh.faces.tolist()
+    if random is not None:
+        random.shuffle(faces)
+    return TriangleMesh(vertices, np.array(faces, dtype=np.int64))
 
 
 _corner = st.integers(0, 6).map(lambda k: 65 * k)
@@ -286,16 +292,11 @@ def test_signed_unions_of_boxes_match_the_grid_oracle(boxes, rotation, random, r
     exact = grid_oracle(boxes)
     if exact["volume"] == 0:
         return
-    mesh = box_soup(boxes)
     matrix = _ROTATIONS[rotation]
-    vertices = _turned(mesh, matrix)
-    faces = mesh.faces.tolist()
-    random.shuffle(faces)
+    result_mesh = _turned_soup(boxes, matrix, random)
     copies = [b for b in boxes if random.random() < 0.3 * repeats]
-    result_mesh = TriangleMesh(vertices, np.array(faces, dtype=np.int64))
     if copies:
-        again = box_soup(copies)
-        result_mesh = solids.combine(result_mesh, TriangleMesh(_turned(again, matrix), again.faces))
+        result_mesh = solids.combine(result_mesh, _turned_soup(copies, matrix))
         exact = grid_oracle(boxes + copies)
     result = mass_properties(soup(result_mesh))
     within_bounds(result.properties, _rotated(exact, matrix))

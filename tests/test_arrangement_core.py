@@ -16,10 +16,9 @@ from hypothesis import given, settings, strategies as st
 
 from massprops import mass_properties
 from massprops.mesh import arrangement
-from massprops.mesh.surface import TriangleMesh
 from massprops.validation import solids
 from oracle import within_bounds
-from test_arrangement import _ROTATIONS, _box, _rotated, _turned, box_soup, grid_oracle, soup
+from test_arrangement import _ROTATIONS, _box, _rotated, _turned_soup, grid_oracle, soup
 from conftest import random_rotation
 
 
@@ -122,12 +121,8 @@ def test_box_unions_agree_with_the_exact_path_and_the_oracle(boxes, rotation, ra
         exact = grid_oracle(boxes)
         if exact["volume"] == 0:
             return
-        mesh = box_soup(boxes)
         matrix = _ROTATIONS[rotation]
-        vertices = _turned(mesh, matrix)
-        faces = mesh.faces.tolist()
-        random.shuffle(faces)
-        result = mass_properties(soup(TriangleMesh(vertices, np.array(faces, dtype=np.int64))))
+        result = mass_properties(soup(_turned_soup(boxes, matrix, random)))
         within_bounds(result.properties, _rotated(exact, matrix))
 
 
