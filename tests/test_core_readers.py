@@ -148,6 +148,33 @@ def test_obj_repeating_corners_per_face_is_welded(tmp_path):
     assert result.properties.volume == 6.0 and result.checks["closed"]
 
 
+_CORNER = st.tuples(st.integers(0, 12), st.booleans(), st.sampled_from(["", "/7", "//3", "/2/9", "/"]),
+                    st.sampled_from([" ", "  ", "\t", " \t "]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.tuples(st.integers(0, 239), _CORNER), min_size=3, max_size=9), min_size=1, max_size=30),
+       st.sampled_from(["\n", "\r\n"]), st.booleans())
+def test_obj_corners_of_any_width_are_the_vertices_they_name(tmp_path_factory, faces, newline, last_newline):
+    """Corners as written by any exporter (leading zeros to 12+ digits, negative, with texture and normal
+    numbers, any blanks between them) name the vertices the format says: the triangles are the fan of
+    each face's corners, taken from the vertex table by hand."""
+    points = np.arange(240 * 3, dtype=float).reshape(240, 3) * 0.5 + np.array([1.0, -2.0, 3.0]) * 1e-3
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in points.tolist()]
+    expected = []
+    for face in faces:
+        words = []
+        for index, (zeros, negative, tail, blank) in face:
+            number = f"-{240 - index}" if negative else f"{index + 1:0{zeros + len(str(index + 1))}d}"
+            words.append(number + tail + blank)
+        lines.append("f " + "".join(words).rstrip(" \t"))
+        corners = [index for index, _ in face]
+        expected += [points[[corners[0], corners[k], corners[k + 1]]] for k in range(1, len(corners) - 1)]
+    text = newline.join(lines) + (newline if last_newline else "")
+    mesh = read(_write(tmp_path_factory.mktemp("obj"), "corners.obj", text))
+    assert np.array_equal(_triangles(mesh), np.array(expected))
+
+
 @pytest.mark.parametrize("text, message", [
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", r"line 4: a face needs at least 3 vertices, this one has 2"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", r"line 4: face corner 4 refers to a vertex that does not exist "

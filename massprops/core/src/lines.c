@@ -41,6 +41,7 @@ static int refill(LineReader *r)
     size_t rest = r->end - r->start, want;
     if (r->offset >= r->size)
         return 0;
+    r->cr_known = 0;
     if (r->start > 0) {
         memmove(r->buffer, r->buffer + r->start, rest);
         r->start = 0;
@@ -77,12 +78,16 @@ int lines_next(LineReader *r, const char **text, size_t *length)
     size_t scanned = r->start;
     for (;;) {
         /* the first '\n' or '\r' at or after `scanned` (memchr: vectorised by the C library) */
-        char *newline = memchr(r->buffer + scanned, '\n', r->end - scanned);
-        char *found = memchr(r->buffer + scanned, '\r', (size_t)((newline ? newline : r->buffer + r->end)
-                                                                - (r->buffer + scanned)));
+        char *newline = memchr(r->buffer + scanned, '\n', r->end - scanned), *found;
         size_t k;
-        if (!found)
-            found = newline;
+        /* and the first '\r': looked for once up to the buffer's end, again only once passed (a file
+         * with '\n' line ends is searched for '\r' once, not once a line) */
+        if (!r->cr_known || r->cr < scanned) {
+            char *cr = memchr(r->buffer + scanned, '\r', r->end - scanned);
+            r->cr = cr ? (size_t)(cr - r->buffer) : r->end;
+            r->cr_known = 1;
+        }
+        found = r->cr < (newline ? (size_t)(newline - r->buffer) : r->end) ? r->buffer + r->cr : newline;
         k = found ? (size_t)(found - r->buffer) : r->end;
         /* A '\r' at the end of the buffer may be the first half of "\r\n": read on first. */
         if (found && !(*found == '\r' && k + 1 == r->end && r->offset < r->size)) {

@@ -20,6 +20,8 @@ typedef struct {
     char *buffer;
     size_t capacity, start, end;
     int64_t line;             /* number of the line last returned, from 1 */
+    size_t cr;                /* where the buffer's next '\r' is (`end` if none), when cr_known */
+    int cr_known;
     Failure *failure;
 } LineReader;
 

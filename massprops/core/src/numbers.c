@@ -346,14 +346,53 @@ static double slow_path(const char *start, size_t length)
     return value;
 }
 
+/* The double nearest mantissa * 10**exponent (negated when `negative`), the decimal being
+ * [start, end) with `significant` significant digits (mantissa holds the first 19 of them). */
+static inline double finish_decimal(uint64_t mantissa, int64_t exponent, int significant, int negative,
+                                    const char *start, const char *end)
+{
+    double value;
+    /* More than 19 significant digits (some were not accumulated) never take the fast path. */
+    if (significant <= 19 && mantissa <= ((uint64_t)1 << 53) && exponent >= -22 && exponent <= 22) {
+        double m = (double)mantissa;                 /* exact: at most 2**53 */
+        value = exponent >= 0 ? m * powers_of_ten[exponent] : m / powers_of_ten[-exponent];
+        return negative ? -value : value;
+    }
+#if defined(__SIZEOF_INT128__)
+    if (significant <= 19 && (lemire(mantissa, exponent, &value) == 0 || exact_decimal(mantissa, exponent, &value) == 0))
+        return negative ? -value : value;
+#endif
+    return slow_path(start, (size_t)(end - start));
+}
+
 int parse_decimal(const char *start, const char *end, const char **stop, double *value)
 {
     const char *p = start;
     int negative = 0, digits = 0, significant = 0, exponent_sign = 1;
     int64_t exponent = 0, dropped = 0;
-    uint64_t mantissa = 0;
+    uint64_t mantissa = 0, eight;
     if (p < end && (*p == '+' || *p == '-'))
         negative = *p++ == '-';
+    /* The usual shape first: a nonzero leading digit, perhaps a point, at most 19 digits in all, no
+     * exponent (what "%.17g" and "%f" write); the same mantissa and exponent as the general reading. */
+    if (p < end && *p >= '1' && *p <= '9') {
+        const char *q = p;
+        int count = 0, fraction = 0;
+        for (; q < end && is_digit(*q) && count < 19; q++, count++)
+            mantissa = 10 * mantissa + (uint64_t)(*q - '0');
+        if (q < end && *q == '.') {
+            for (q++; count <= 11 && end - q >= 8 && eight_digits(q, &eight); q += 8, count += 8, fraction += 8)
+                mantissa = mantissa * 100000000ULL + eight;
+            for (; q < end && is_digit(*q) && count < 19; q++, count++, fraction++)
+                mantissa = 10 * mantissa + (uint64_t)(*q - '0');
+        }
+        if (!(q < end && (is_digit(*q) || *q == '.' || *q == 'e' || *q == 'E'))) {
+            *stop = q;
+            *value = finish_decimal(mantissa, -fraction, count, negative, start, q);
+            return 0;
+        }
+        mantissa = 0;                                /* read again, in general */
+    }
     for (; p < end && is_digit(*p); p++, digits++) {
         if (significant || *p != '0') {
             if (significant < 19)
@@ -365,7 +404,6 @@ int parse_decimal(const char *start, const char *end, const char **stop, double 
     }
     if (p < end && *p == '.') {
         for (p++; p < end && is_digit(*p); p++, digits++) {
-            uint64_t eight;
             /* eight digits at once while all eight are accumulated (after the leading zeros, below 19) */
             while (significant > 0 && significant <= 11 && end - p >= 8 && eight_digits(p, &eight)) {
                 mantissa = mantissa * 100000000ULL + eight;
@@ -401,24 +439,7 @@ int parse_decimal(const char *start, const char *end, const char **stop, double 
             return -1;
     }
     *stop = p;
-    end = p;
-    exponent = exponent_sign * exponent + dropped;
-    /* More than 19 significant digits (some were not accumulated) never take the fast path. */
-    if (significant <= 19 && mantissa <= ((uint64_t)1 << 53) && exponent >= -22 && exponent <= 22) {
-        double m = (double)mantissa;                 /* exact: at most 2**53 */
-        *value = exponent >= 0 ? m * powers_of_ten[exponent] : m / powers_of_ten[-exponent];
-        if (negative)
-            *value = -*value;
-        return 0;
-    }
-#if defined(__SIZEOF_INT128__)
-    if (significant <= 19 && (lemire(mantissa, exponent, value) == 0 || exact_decimal(mantissa, exponent, value) == 0)) {
-        if (negative)
-            *value = -*value;
-        return 0;
-    }
-#endif
-    *value = slow_path(start, (size_t)(end - start));
+    *value = finish_decimal(mantissa, exponent_sign * exponent + dropped, significant, negative, start, p);
     return 0;
 }
 

@@ -119,10 +119,38 @@ static int corner_number(const char **p, const char *end, int64_t *given)
     return 1;
 }
 
-/* The 0-based vertex of a corner given as `given`; -1 after a failure. */
-static int64_t corner_index(ObjState *s, int64_t given)
+/* The digits at *p when fewer than eight of them come before something else (eight bytes readable):
+ * 1 and their value, *p after them; 0 otherwise. */
+static inline int short_number(const char **p, int64_t *value)
 {
-    int64_t defined = vertex_count(s);
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    uint64_t v, x, other;
+    int n;
+    memcpy(&v, *p, sizeof v);
+    x = v ^ 0x3030303030303030ULL;               /* a digit's byte becomes 0..9 */
+    /* a byte's top bit set where it is not a digit (a carry only spills into the bytes after the first) */
+    other = (x | (x + 0x7676767676767676ULL)) & 0x8080808080808080ULL;
+    if (other == 0)
+        return 0;
+    n = __builtin_ctzll(other) >> 3;             /* digits before it: 1..7 (the first is a digit) */
+    x <<= 8 * (8 - n);                           /* the digits, as the last n of eight */
+    x = x * 10 + (x >> 8);
+    *value = (int64_t)((((x & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))
+                         + ((x >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32));
+    *p += n;
+    return 1;
+#else
+    (void)p;
+    (void)value;
+    return 0;
+#endif
+}
+
+/* The 0-based vertex of a corner given as `given`, `defined` vertices having been read; -1 after a failure. */
+static inline int64_t corner_index(ObjState *s, int64_t given, int64_t defined)
+{
+    if (given > 0 && given <= defined && !s->chunk)
+        return given - 1;
     if (s->chunk && given != 0) {
         int64_t need = (given > 0 ? given : -given) - defined;
         if (need > s->need)
@@ -145,7 +173,7 @@ static int64_t corner_index(ObjState *s, int64_t given)
 
 /* The 0-based vertex of a corner word; -1 after a failure. */
 static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end, const char *text,
-                             const char *end)
+                             const char *end, int64_t defined)
 {
     const char *p = word;
     int64_t given;
@@ -153,14 +181,19 @@ static int64_t corner_vertex(ObjState *s, const char *word, const char *word_end
         cannot_read(s, text, end);
         return -1;
     }
-    return corner_index(s, given);
+    return corner_index(s, given, defined);
 }
 
 static int face_line(ObjState *s, const char *p, const char *end, const char *text)
 {
     const char *word = NULL, *word_end = NULL;
-    int64_t count, k, *corners;
-    s->corners.size = 0;
+    int64_t count = 0, k, *corners, defined = vertex_count(s);
+    /* room for every corner the line can hold (each is a character and a blank), reserved once */
+    if (reserve(&s->corners, ((size_t)(end - p) / 2 + 1) * sizeof(int64_t)) != 0) {
+        fail(s->failure, ERR_MEMORY, NULL, "out of memory");
+        return -1;
+    }
+    corners = (int64_t *)s->corners.data;
     for (;;) {
         const char *q;
         int64_t vertex, given;
@@ -169,24 +202,35 @@ static int face_line(ObjState *s, const char *p, const char *end, const char *te
         if (p >= end || *p == '#')
             break;
         q = p;
-        /* A corner read where it starts, the line scanned once; anything else as a word. */
+        /* A corner read where it starts, the line scanned once (plain digits first: "f 1 2 3"), anything
+         * else as a word. */
+        if (*q >= '0' && *q <= '9') {
+            if (end - q < 8 || !short_number(&q, &given)) {
+                int digits = 0;
+                for (given = 0; q < end && *q >= '0' && *q <= '9' && digits < 18; q++, digits++)
+                    given = 10 * given + (*q - '0');
+            }
+            if (q == end || is_space(*q)) {
+                p = q;
+                vertex = corner_index(s, given, defined);
+                if (vertex < 0)
+                    return -1;
+                corners[count++] = vertex;
+                continue;
+            }
+            q = p;
+        }
         if (corner_number(&q, end, &given) && (q == end || is_space(*q))) {
             p = q;
-            vertex = corner_index(s, given);
+            vertex = corner_index(s, given, defined);
         } else {
             next_word(&p, end, &word, &word_end);
-            vertex = corner_vertex(s, word, word_end, text, end);
+            vertex = corner_vertex(s, word, word_end, text, end, defined);
         }
         if (vertex < 0)
             return -1;
-        if (reserve(&s->corners, sizeof vertex) != 0) {
-            fail(s->failure, ERR_MEMORY, NULL, "out of memory");
-            return -1;
-        }
-        memcpy(s->corners.data + s->corners.size, &vertex, sizeof vertex);
-        s->corners.size += sizeof vertex;
+        corners[count++] = vertex;
     }
-    count = (int64_t)(s->corners.size / sizeof(int64_t));
     if (count < 3) {
         fail(s->failure, ERR_PARSE, "re-export the mesh",
              "line %lld: a face needs at least 3 vertices, this one has %lld", (long long)s->line, (long long)count);
@@ -196,11 +240,12 @@ static int face_line(ObjState *s, const char *p, const char *end, const char *te
         fail(s->failure, ERR_MEMORY, NULL, "out of memory");
         return -1;
     }
-    corners = (int64_t *)s->corners.data;
     for (k = 1; k + 1 < count; k++) {                    /* a fan from the first corner */
-        index_t triangle[3] = {corners[0], corners[k], corners[k + 1]};
-        memcpy(s->faces.data + s->faces.size, triangle, sizeof triangle);
-        s->faces.size += sizeof triangle;
+        index_t *triangle = (index_t *)(s->faces.data + s->faces.size);
+        triangle[0] = corners[0];
+        triangle[1] = corners[k];
+        triangle[2] = corners[k + 1];
+        s->faces.size += 3 * sizeof(index_t);
     }
     return 0;
 }
