@@ -110,3 +110,16 @@ def test_jacobi_leaves_a_non_finite_or_zero_matrix_unrotated():
         moments, vectors, bound = _jacobi(rows)
         assert moments == [rows[0][0], rows[1][1], rows[2][2]]
         assert vectors == [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] and bound == 0.0
+
+
+def test_a_batch_row_of_a_name_that_needs_quoting_is_the_row_props_writes(runner, tmp_path):
+    """The row formed from the result's numbers quotes a file name with a comma or a quote as props does."""
+    part = tmp_path / 'bracket, "left".stl'
+    write_binary(part, solids.l_bracket(3.0, 1.0, 0.5).transformed(random_rotation(5), np.array([1.0, 2.0, 3.0])).triangles)
+    props = runner.invoke(massprops.cli.main, ["props", "--format", "csv", str(part)])
+    assert props.exit_code == 0, props.output
+    report = tmp_path / "report.csv"
+    batch = runner.invoke(massprops.cli.main, ["batch", "-j", "1", "-q", "-o", str(report), str(part)])
+    assert batch.exit_code == 0, batch.output
+    got, expected = _rows(report.read_text()), _rows(props.stdout)
+    assert got == [dict(r, status="ok", message="") for r in expected] and got[0]["file"] == str(part)

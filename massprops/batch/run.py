@@ -155,9 +155,13 @@ def run_one(path, settings=Settings(), output_format="csv"):
                                  max_unpacked=settings.max_unpacked, max_instances=settings.max_instances,
                                  max_depth=settings.max_depth, self_intersection=settings.self_intersection,
                                  only=settings.only)
-        # a CSV row reads a few of the object's keys: the brief object has them, with the same values
-        obj = report.result_dict(result, only=settings.only, brief=output_format == "csv")
-        return Outcome(path, "ok", "", record(obj, "ok", "", output_format), unit=result.properties.unit)
+        if output_format == "csv" and settings.only is None:
+            line = report.tables.result_csv_line(result)       # the row's numbers straight from the result
+        else:
+            # a CSV row reads a few of the object's keys: the brief object has them, with the same values
+            obj = report.result_dict(result, only=settings.only, brief=output_format == "csv")
+            line = record(obj, "ok", "", output_format)
+        return Outcome(path, "ok", "", line, unit=result.properties.unit)
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a batch reports every failure as a row and goes on
         message = error_message(exc, settings.option_style)
         return Outcome(path, "error", message, record({"file": path}, "error", message, output_format), "error")

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import re
 
-__all__ = ["CSV_COLUMNS", "csv_row", "csv_line", "to_csv"]
+__all__ = ["CSV_COLUMNS", "csv_row", "csv_line", "result_csv_line", "to_csv"]
 
 CSV_COLUMNS = ("file,status,message,triangles,volume,mass,cx,cy,cz,Ixx,Iyy,Izz,Ixy,Ixz,Iyz,I1,I2,I3,"
                "a1x,a1y,a1z,a2x,a2y,a2z,a3x,a3y,a3z,err_volume,err_inertia,elapsed_s").split(",")
@@ -48,6 +49,41 @@ def csv_row(obj, *, status="ok", message=""):
         (row["a1x"], row["a1y"], row["a1z"]), (row["a2x"], row["a2y"], row["a2z"]), \
             (row["a3x"], row["a3y"], row["a3z"]) = map(_cells, obj["principal_axes"])
     return row
+
+
+def _finite_cells(values):
+    # a float's repr, or an empty cell for one beyond double precision (null in the JSON object)
+    return [repr(v) if math.isfinite(v) else "" for v in values]
+
+
+def result_csv_line(result):
+    """The CSV line (with its line feed) of a computed :class:`massprops.result.Result`, every quantity in it.
+
+    The same text as ``csv_line(csv_row(result_dict(result)))`` (what ``props --format csv`` writes), formed
+    from the result's numbers directly: a batch writes one per file.
+    """
+    p = result.properties
+    error = p.error
+    cells = [result.file, "ok", "", result.triangles, *_finite_cells((float(p.volume), float(p.mass)))]
+    if p.center_of_mass is None:
+        cells += [""] * 3
+    else:
+        cells += _finite_cells(p.center_of_mass.tolist())
+    if p.inertia_com is None:
+        cells += [""] * 18
+        err_inertia = ""
+    else:
+        (xx, xy, xz), (_, yy, yz), (_, _, zz) = p.inertia_com.tolist()
+        found = p.principal
+        cells += _finite_cells((xx, yy, zz, xy, xz, yz, *found.moments.tolist(), *found.axes.ravel().tolist()))
+        err_inertia = _cell_of(error.inertia_com)
+    cells += [_cell_of(error.volume), err_inertia, _cell_of(result.elapsed_s)]
+    line = _plain_csv_line(cells)
+    return line if line is not None else ",".join(map(_csv_field, cells)) + "\n"
+
+
+def _cell_of(value):
+    return "" if value is None else _finite_cells((float(value),))[0]
 
 
 def to_csv(rows, columns=None):
