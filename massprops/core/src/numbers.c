@@ -365,7 +365,9 @@ static inline double finish_decimal(uint64_t mantissa, int64_t exponent, int sig
     return slow_path(start, (size_t)(end - start));
 }
 
-int parse_decimal(const char *start, const char *end, const char **stop, double *value)
+/* Any decimal (see parse_decimal). */
+static __attribute__((noinline)) int general_decimal(const char *start, const char *end, const char **stop,
+                                                      double *value)
 {
     const char *p = start;
     int negative = 0, digits = 0, significant = 0, exponent_sign = 1;
@@ -373,26 +375,6 @@ int parse_decimal(const char *start, const char *end, const char **stop, double 
     uint64_t mantissa = 0, eight;
     if (p < end && (*p == '+' || *p == '-'))
         negative = *p++ == '-';
-    /* The usual shape first: a nonzero leading digit, perhaps a point, at most 19 digits in all, no
-     * exponent (what "%.17g" and "%f" write); the same mantissa and exponent as the general reading. */
-    if (p < end && *p >= '1' && *p <= '9') {
-        const char *q = p;
-        int count = 0, fraction = 0;
-        for (; q < end && is_digit(*q) && count < 19; q++, count++)
-            mantissa = 10 * mantissa + (uint64_t)(*q - '0');
-        if (q < end && *q == '.') {
-            for (q++; count <= 11 && end - q >= 8 && eight_digits(q, &eight); q += 8, count += 8, fraction += 8)
-                mantissa = mantissa * 100000000ULL + eight;
-            for (; q < end && is_digit(*q) && count < 19; q++, count++, fraction++)
-                mantissa = 10 * mantissa + (uint64_t)(*q - '0');
-        }
-        if (!(q < end && (is_digit(*q) || *q == '.' || *q == 'e' || *q == 'E'))) {
-            *stop = q;
-            *value = finish_decimal(mantissa, -fraction, count, negative, start, q);
-            return 0;
-        }
-        mantissa = 0;                                /* read again, in general */
-    }
     for (; p < end && is_digit(*p); p++, digits++) {
         if (significant || *p != '0') {
             if (significant < 19)
@@ -440,6 +422,43 @@ int parse_decimal(const char *start, const char *end, const char **stop, double 
     }
     *stop = p;
     *value = finish_decimal(mantissa, exponent_sign * exponent + dropped, significant, negative, start, p);
+    return 0;
+}
+
+int parse_decimal(const char *start, const char *end, const char **stop, double *value)
+{
+    /* The usual shapes first: "ddd.ddd" with a nonzero leading digit (the point optional) or "0.ddd", at
+     * most 19 significant digits, no exponent (what "%.17g" and "%f" write), read with few registers; the
+     * same mantissa and exponent as the general reading (general_decimal), which takes every other shape. */
+    const char *q = start;
+    int negative = 0, count = 0, fraction = 0, point;
+    uint64_t mantissa = 0, eight;
+    if (q < end && *q == '-') {
+        negative = 1;
+        q++;
+    }
+    if (end - q >= 2 && q[0] == '0' && q[1] == '.') {
+        for (q += 2; q < end && *q == '0'; q++)      /* "0.00": leading zeros, not significant */
+            fraction++;
+        point = 1;
+    } else if (q < end && *q >= '1' && *q <= '9') {
+        for (; q < end && is_digit(*q) && count < 19; q++, count++)
+            mantissa = 10 * mantissa + (uint64_t)(*q - '0');
+        point = q < end && *q == '.';
+        q += point;
+    } else {
+        return general_decimal(start, end, stop, value);
+    }
+    if (point) {
+        for (; count <= 11 && end - q >= 8 && eight_digits(q, &eight); q += 8, count += 8, fraction += 8)
+            mantissa = mantissa * 100000000ULL + eight;
+        for (; q < end && is_digit(*q) && count < 19; q++, count++, fraction++)
+            mantissa = 10 * mantissa + (uint64_t)(*q - '0');
+    }
+    if (q < end && (is_digit(*q) || *q == '.' || *q == 'e' || *q == 'E'))
+        return general_decimal(start, end, stop, value);
+    *stop = q;
+    *value = finish_decimal(mantissa, -fraction, count, negative, start, q);
     return 0;
 }
 
