@@ -9,10 +9,9 @@ import os
 import time
 
 import numpy as np
-from dataclasses import replace
 from functools import lru_cache
 
-from .model.records import record
+from .model.records import record, replace
 from . import core as _core
 from .model.errors import ArgumentTypeError, MassPropsError, OptionError
 from .mesh.arrays import as_mesh, is_path
@@ -219,7 +218,6 @@ def _closed(mesh, path, warnings):
     when not welded), the repeated-face checks and how many times each face
     counts (None: once each).
     """
-    from dataclasses import replace
     from .model.errors import OpenMeshError
     from .mesh.solid import without_repeated_faces
     from .mesh.surface import check_shells

@@ -5,7 +5,7 @@ from dataclasses import FrozenInstanceError, dataclass, field
 
 import pytest
 
-from massprops.model.records import record
+from massprops.model.records import record, replace
 
 
 def _pair(**options):
@@ -72,3 +72,40 @@ def test_post_init_runs_and_may_set_fields():
             object.__setattr__(self, "double", 2 * self.value)
 
     assert Scaled(1.5).double == 3.0
+
+
+def test_replace_gives_what_dataclasses_replace_gives():
+    """records.replace: the fields over the changes, __post_init__ run on the new record, cached values
+    not carried over, an unknown field refused as dataclasses.replace refuses it, other objects passed on."""
+    from functools import cached_property
+
+    @record
+    class Scaled:
+        value: float
+        tags: list = dataclasses.field(default_factory=list)
+        double: float = 0.0
+        calls: list = dataclasses.field(default_factory=list, compare=False)
+
+        def __post_init__(self):
+            object.__setattr__(self, "double", 2 * self.value)
+            self.calls.append(self.value)
+
+        @cached_property
+        def square(self):
+            return self.value ** 2
+
+    one = Scaled(1.5, ["a"])
+    assert one.square == 2.25
+    for changes in ({}, {"value": 4.0}, {"tags": ["b"], "value": -1.0}):
+        ours, reference = replace(one, **changes), dataclasses.replace(one, **changes)
+        assert ours == reference and ours is not one and type(ours) is Scaled
+        assert ours.square == ours.value ** 2 and ours.double == 2 * ours.value
+    assert one.calls == [1.5, 1.5, 1.5, 4.0, 4.0, -1.0, -1.0]        # shared list: each new record's post-init
+    with pytest.raises(TypeError, match="colour"):
+        replace(one, colour="red")
+
+    @dataclass(frozen=True)
+    class Plain:
+        value: int
+
+    assert replace(Plain(1), value=2) == Plain(2)

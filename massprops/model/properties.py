@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import field, replace
+from dataclasses import field
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -19,7 +19,7 @@ import numpy as np
 if TYPE_CHECKING:                       # numpy.typing costs 0.4 ms at start-up
     from numpy.typing import ArrayLike
 
-from .records import record
+from .records import record, replace
 from ..core.rounding import U as _U
 from .errors import MeshGeometryError, OptionError
 from .frames import Pose, frozen_array, inertia_about_frame, matvec, parallel_axis, rotate_inertia

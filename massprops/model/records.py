@@ -20,7 +20,7 @@ import operator
 import reprlib
 from dataclasses import MISSING, FrozenInstanceError
 
-__all__ = ["record", "tuple_record"]
+__all__ = ["record", "replace", "tuple_record"]
 
 
 def record(cls=None, /, *, eq=True):
@@ -94,6 +94,19 @@ def _make(cls, eq):
     def __delattr__(self, name):
         raise FrozenInstanceError(f"cannot delete field {name!r}")
 
+    def _record_replace(self, changes):
+        # replace(): every field's value, the changes over them, and __post_init__, as __init__ would
+        if type(self) is not cls or not known.issuperset(changes):
+            return dataclasses.replace(self, **changes)         # which names the wrong argument
+        values = {name: self.__dict__[name] for name in names}
+        values.update(changes)
+        made = object.__new__(cls)
+        made.__dict__.update(values)
+        if post_init is not None:
+            made.__post_init__()
+        return made
+
+    cls._record_replace = _record_replace
     methods = {"__init__": __init__, "__repr__": __repr__, "__setattr__": __setattr__, "__delattr__": __delattr__}
     if eq:
         def __eq__(self, other):
@@ -110,6 +123,17 @@ def _make(cls, eq):
             method.__qualname__ = f"{qualname}.{name}"
             setattr(cls, name, method)
     return cls
+
+
+def replace(obj, /, **changes):
+    """``dataclasses.replace(obj, **changes)``: a new record with ``changes`` over ``obj``'s fields.
+
+    The same result (``__post_init__`` runs, an unknown field is a TypeError), without
+    dataclasses' walk over the field objects at every call: a batch replaces a few records per file.
+    Objects that are not records go to ``dataclasses.replace``.
+    """
+    fast = getattr(type(obj), "_record_replace", None)
+    return dataclasses.replace(obj, **changes) if fast is None else fast(obj, changes)
 
 
 def tuple_record(cls):

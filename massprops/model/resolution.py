@@ -22,13 +22,13 @@ The bounds are first order in ``δ`` (second-order terms are smaller by
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
 
 from .principal import axis_angle_bounds, physical_checks
 from .properties import unit_length
+from .records import replace
 from ..core import _core
 from ..core.arrays import as_points
 
