@@ -71,12 +71,17 @@ def _serve(connection, parent, threads, compute):
         connection.send(compute(path))
 
 
-@dataclass
+@dataclass(eq=False)
 class _Worker:
     process: object
     connection: object
     held: deque = field(default_factory=deque)       # (path, attempt) sent, in order; the first is being computed
     began: float = 0.0                                 # when it began the first of ``held``
+    has_data: object = None                            # has_data(timeout): whether an outcome is waiting
+
+    def __post_init__(self):
+        wait = _waiter([self.connection])
+        self.has_data = lambda timeout=0: bool(wait(timeout))
 
     def stop(self, *, kill=False):
         if kill and self.process.is_alive():
@@ -131,6 +136,7 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
     context = multiprocessing.get_context()
     queue = deque((path, 0) for path in paths)
     workers = []
+    waiting, wait = (), None                           # the busy workers last waited on, and their waiter
     try:
         while queue or any(w.held for w in workers):
             while len(workers) < min(jobs, len(queue) + sum(len(w.held) for w in workers)):
@@ -139,7 +145,10 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
                 _feed(worker, queue)
             busy = [w for w in workers if w.held]
             limit = None if timeout is None else max(0.0, min(w.began for w in busy) + timeout - time.monotonic())
-            ready = _wait([w.connection for w in busy] + [w.process.sentinel for w in busy], timeout=limit)
+            if len(busy) != len(waiting) or any(a is not b for a, b in zip(busy, waiting)):
+                waiting = tuple(busy)          # the same workers as the last wait, mostly: one poll object for them
+                wait = _waiter([w.connection for w in busy] + [w.process.sentinel for w in busy])
+            ready = wait(limit)
             ended = {item for item in ready if isinstance(item, int)}          # sentinels: processes that exited
             for worker in list(busy):
                 done, lost = _collect(worker, timeout, worker.process.sentinel in ended)
@@ -158,26 +167,31 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
             worker.stop(kill=sys.exc_info()[0] is not None)
 
 
-def _wait(objects, timeout=None):
-    """The connections and sentinels of ``objects`` that are ready (data, end of file, or an exited process).
+def _waiter(objects):
+    """``wait(timeout)``: the connections and sentinels of ``objects`` that are ready (data, end of file, or an
+    exited process), waiting at most ``timeout`` seconds (None: until one is).
 
-    ``multiprocessing.connection.wait`` with one ``poll`` object and no
-    selector: that one builds a selector and registers every descriptor at
-    each call, and a batch waits about three times per file (here a few
-    microseconds, there some 20).  Elsewhere than where ``poll`` exists, that
-    function itself.
+    ``multiprocessing.connection.wait`` with one ``poll`` object, made once for
+    the objects and kept while they are the ones waited on: that function builds
+    a selector and registers every descriptor at each call, and a batch waits
+    about three times per file (here a few microseconds, there some 20).
+    Elsewhere than where ``poll`` exists, that function itself.
     """
     import select
     if not hasattr(select, "poll"):
-        from multiprocessing.connection import wait
-        return wait(objects, timeout)
+        from multiprocessing.connection import wait as wait_on
+        return lambda timeout=None: wait_on(objects, timeout)
     poller, by_fd = select.poll(), {}
     for item in objects:
         fd = item if isinstance(item, int) else item.fileno()
         by_fd[fd] = item
         poller.register(fd, select.POLLIN)
-    ready = poller.poll(None if timeout is None else math.ceil(max(0.0, timeout) * 1000))
-    return [by_fd[fd] for fd, _ in ready]
+
+    def wait(timeout=None):
+        ready = poller.poll(None if timeout is None else math.ceil(max(0.0, timeout) * 1000))
+        return [by_fd[fd] for fd, _ in ready]
+
+    return wait
 
 
 def _feed(worker, queue):
@@ -199,7 +213,7 @@ def _collect(worker, timeout, ended=True):
     """
     done = []
     try:
-        while worker.held and _wait([worker.connection], 0):
+        while worker.held and worker.has_data():
             done.append(worker.connection.recv())
             worker.held.popleft()
             worker.began = time.monotonic()
