@@ -17,7 +17,8 @@ from dataclasses import field
 import numpy as np
 
 from ..model.records import record
-from ..core import distinct_faces, edge_summary, face_groups, shells, weld_corners, weld_indexed
+from ..core import distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core.topology import edge_shells
 from ..model.errors import MeshGeometryError, OpenMeshError, WindingError
 from ..model.frames import matvec
 
@@ -161,11 +162,12 @@ def check_shells(mesh, path=None):
                                 fix="re-export the mesh")
     if not np.isfinite(vertices).all():
         _refuse_non_finite(vertices, faces, path)
-    edges = edge_summary(faces, vertices.shape[0])
+    # The shells' union-find runs beside the edges' matching (issue 24); for an open or misoriented mesh
+    # they are not used, and the refusal is edge_summary's.
+    edges, labels, n_shells = edge_shells(faces, vertices.shape[0])
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
-    labels, n_shells = shells(faces, vertices.shape[0])
-    if n_shells == 1:
+    if labels is None:
         # Every label is 0: one zero seen m times (read-only, no memory), not 8 bytes a face held while the
         # self-intersection search runs, the peak of a large mesh (issue 24).
         labels = np.broadcast_to(np.int64(0), (faces.shape[0],))
