@@ -504,6 +504,7 @@ done:
     free(w.blocks);
     free(w.collapsed);
     free(w.degenerate);
+    release_free_memory(3 * m * (int64_t)sizeof(int64_t));
     return failure->kind == ERR_NONE ? 0 : -1;
 }
 
