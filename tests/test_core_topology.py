@@ -212,6 +212,18 @@ def test_edge_shells_counts_shells_of_collapsed_faces(extra):
     _assert_edge_shells(np.concatenate([cube.faces, extra]), 11)
 
 
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+@pytest.mark.parametrize("bad", [8, -1, 1000])
+def test_edge_shells_refuses_the_first_face_outside_the_vertices(dtype, bad):
+    cube = solids.box((1.0, 1.0, 1.0))
+    faces = cube.faces.astype(dtype)
+    faces[7, 2], faces[9, 0] = bad, 8
+    with pytest.raises(IndexError, match=rf"^face 7 refers to vertex {bad}, but there are 8 vertices$"):
+        edge_shells(faces, 8)
+    with pytest.raises(MassPropsError, match="a face refers to a vertex that does not exist"):
+        check_mesh(TriangleMesh(cube.vertices, faces))
+
+
 def _outcome(mesh):
     try:
         return "passed", check_mesh(mesh).as_dict()

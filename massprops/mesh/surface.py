@@ -157,14 +157,15 @@ def check_shells(mesh, path=None):
     if faces.shape[0] == 0:
         raise MeshGeometryError("the file holds no triangles", path=path,
                                 fix="export the part as a closed surface mesh")
-    if faces.min() < 0 or faces.max() >= vertices.shape[0]:
+    # The shells' union-find runs beside the edges' matching, which checks the indices (issue 24: no passes of
+    # their own); for an open or misoriented mesh the shells are not used, and the refusal is the edges'.
+    try:
+        edges, labels, n_shells = edge_shells(faces, vertices.shape[0])
+    except IndexError:
         raise MeshGeometryError("a face refers to a vertex that does not exist", path=path,
-                                fix="re-export the mesh")
+                                fix="re-export the mesh") from None
     if not np.isfinite(vertices).all():
         _refuse_non_finite(vertices, faces, path)
-    # The shells' union-find runs beside the edges' matching (issue 24); for an open or misoriented mesh
-    # they are not used, and the refusal is edge_summary's.
-    edges, labels, n_shells = edge_shells(faces, vertices.shape[0])
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
     if labels is None:

@@ -78,6 +78,8 @@ typedef struct {
     int64_t parts;              /* counting and filing: the vertex range split in this many parts */
     int64_t *collapsed, *degenerate;   /* per part: directed edges a -> a, faces with a repeated vertex */
     int32_t *parent;            /* edge_shells: the shells' union-find over vertices (NULL: no shells) */
+    int checked;                /* edge_shells: the passes check the indices (not checked before) */
+    int outside[2];             /* edge_shells: a face refers to no vertex (found by the counting, the joining) */
     int64_t *roots;             /* edge_shells: per block of VERTEX_BLOCK vertices, roots with an edge filed */
 } EdgeWork;
 
@@ -108,6 +110,11 @@ typedef struct {
             (w)->entries[(w)->offsets[lower_]++] = (uint32_t)(higher_ << 1) | (uint32_t)((tail) > (head)); \
     } while (0)
 
+/* Whether a face's corner is outside [0, n), in the passes that check the indices themselves. */
+#define OUTSIDE(w, a, b, c)                                                                      \
+    ((w)->checked && ((uint64_t)(a) >= (uint64_t)(w)->n || (uint64_t)(b) >= (uint64_t)(w)->n     \
+                      || (uint64_t)(c) >= (uint64_t)(w)->n))
+
 static void count_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
@@ -115,6 +122,10 @@ static void count_part(void *arg, int64_t part)
             degenerate = 0;
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[0] = 1;
+            break;
+        }
         COUNT(w, a, b, low, high);
         COUNT(w, b, c, low, high);
         COUNT(w, c, a, low, high);
@@ -343,6 +354,10 @@ static void join_faces(EdgeWork *w)
         w->parent[f] = (int32_t)f;
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[1] = 1;
+            return;
+        }
         join(w->parent, (int32_t)a, (int32_t)b);
         join(w->parent, (int32_t)a, (int32_t)c);
     }
@@ -352,6 +367,8 @@ static void count_and_file(EdgeWork *w)
 {
     int64_t v;
     count_part(w, 0);
+    if (w->outside[0])
+        return;
     for (v = 0; v < w->n; v++)
         w->offsets[v + 1] += w->offsets[v];
     file_part(w, 0);
@@ -407,14 +424,15 @@ int edge_shells(const void *faces, int faces32, int64_t m, int64_t n, int thread
 static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
                      EdgeArrays *arrays, ShellResult *shells, Failure *failure)
 {
-    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 1, NULL, NULL, NULL, NULL};
+    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 1, NULL, NULL, NULL, 0, {0, 0}, NULL};
     int64_t blocks = (n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, v, k, collapsed = 0, degenerate = 0;
     summary_init(out);
     if (shells) {
         shells->count = 0;
         shells->labels = NULL;
     }
-    if (check_indices(faces, faces32, m, n, failure) != 0)
+    /* edge_shells checks the indices in its passes (the first face outside is then found from the start) */
+    if (check_indices(faces, faces32, shells ? 0 : m, n, failure) != 0)
         return -1;
     if (3 * m >= ((int64_t)1 << 32)) {
         fail(failure, ERR_VALUE, "split the mesh into parts", "more than 1.4 billion triangles: too many for the checks");
@@ -440,7 +458,10 @@ static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int t
             fail(failure, ERR_MEMORY, NULL, "out of memory");
             goto done;
         }
+        w.checked = 1;
         parallel_blocks(threads, 2, shells_or_edges, &w);
+        if ((w.outside[0] || w.outside[1]) && check_indices(faces, faces32, m, n, failure) != 0)
+            goto done;
     } else {
         parallel_blocks(threads, w.parts, count_part, &w);
         for (v = 0; v < n; v++)
