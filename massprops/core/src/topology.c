@@ -345,8 +345,8 @@ static void append_edge(void *ctx, int64_t low, int64_t high, int64_t uses, int6
     a->count++;
 }
 
-/* edge_shells: the union-find of the shells (block 0) beside the edges' counting and filing on one
- * part (block 1), so on two threads the shells cost no time of their own. */
+/* edge_shells: the union-find of the shells (block 0) beside the edges' counting (block 1); then the
+ * filing in parts, so on two threads the shells cost little time of their own. */
 static void join_faces(EdgeWork *w)
 {
     int64_t f, a, b, c;
@@ -363,23 +363,12 @@ static void join_faces(EdgeWork *w)
     }
 }
 
-static void count_and_file(EdgeWork *w)
-{
-    int64_t v;
-    count_part(w, 0);
-    if (w->outside[0])
-        return;
-    for (v = 0; v < w->n; v++)
-        w->offsets[v + 1] += w->offsets[v];
-    file_part(w, 0);
-}
-
 static void shells_or_edges(void *arg, int64_t block)
 {
     if (block == 0)
         join_faces(arg);
     else
-        count_and_file(arg);
+        count_part(arg, 0);
 }
 
 /* Number the shells of w->parent's union-find by first face: their count, and each face's shell in
@@ -451,7 +440,8 @@ static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int t
         goto done;
     }
     if (shells) {
-        w.parts = 1;
+        int64_t parts = w.parts;
+        w.parts = 1;                               /* counted on one part, beside the joining */
         w.parent = malloc((size_t)(n > 0 ? n : 1) * sizeof *w.parent);
         w.roots = calloc((size_t)(blocks > 0 ? blocks : 1), sizeof *w.roots);
         if (!w.parent || !w.roots) {
@@ -462,6 +452,11 @@ static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int t
         parallel_blocks(threads, 2, shells_or_edges, &w);
         if ((w.outside[0] || w.outside[1]) && check_indices(faces, faces32, m, n, failure) != 0)
             goto done;
+        w.checked = 0;
+        w.parts = parts;
+        for (v = 0; v < n; v++)
+            w.offsets[v + 1] += w.offsets[v];
+        parallel_blocks(threads, w.parts, file_part, &w);
     } else {
         parallel_blocks(threads, w.parts, count_part, &w);
         for (v = 0; v < n; v++)
