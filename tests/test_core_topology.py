@@ -16,6 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 from massprops.validation import solids
 from massprops.core import edge_summary, face_groups, shells, weld_corners, weld_indexed
+from massprops.core.topology import edge_shells
 from massprops.model.errors import MassPropsError
 from massprops.mesh import TriangleMesh, check_mesh
 
@@ -187,11 +188,40 @@ def test_edges_shells_and_duplicates_match_their_oracles(seed, kind, flaw):
                                                     "balance": None})
     labels, count = shells(faces, n)
     assert (labels.tolist(), count) == _components_oracle(faces, n)
+    _assert_edge_shells(faces, n)
     groups = face_groups(faces)
     expected_labels, same, opposite = _groups_oracle(faces)
     assert groups.labels.tolist() == expected_labels
     assert (groups.same_orientation, groups.opposite_orientation) == (same, opposite)
     assert groups.first.tolist() == [expected_labels.index(k) for k in range(max(expected_labels) + 1)]
+
+
+def _assert_edge_shells(faces, n):
+    """edge_shells gives edge_summary's counts and the oracle's shells (labels only when more than one)."""
+    summary, labels, count = edge_shells(faces, n)
+    expected_labels, expected_count = _components_oracle(faces, n)
+    assert summary == edge_summary(faces, n)
+    assert count == expected_count
+    assert (labels.tolist() if labels is not None else None) == (expected_labels if expected_count > 1 else None)
+
+
+@pytest.mark.parametrize("extra", [[[8, 8, 8]], [[8, 8, 8], [9, 9, 9]], [[0, 0, 0]], [[8, 8, 9]], [[8, 9, 9], [9, 9, 8]]])
+def test_edge_shells_counts_shells_of_collapsed_faces(extra):
+    """A face (a, a, a) has no edge: a shell of its own vertex is still one shell (and (a, a, b) one with an edge)."""
+    cube = solids.box((1.0, 1.0, 1.0))
+    _assert_edge_shells(np.concatenate([cube.faces, extra]), 11)
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+@pytest.mark.parametrize("bad", [8, -1, 1000])
+def test_edge_shells_refuses_the_first_face_outside_the_vertices(dtype, bad):
+    cube = solids.box((1.0, 1.0, 1.0))
+    faces = cube.faces.astype(dtype)
+    faces[7, 2], faces[9, 0] = bad, 8
+    with pytest.raises(IndexError, match=rf"^face 7 refers to vertex {bad}, but there are 8 vertices$"):
+        edge_shells(faces, 8)
+    with pytest.raises(MassPropsError, match="a face refers to a vertex that does not exist"):
+        check_mesh(TriangleMesh(cube.vertices, faces))
 
 
 def _outcome(mesh):
@@ -239,6 +269,7 @@ def test_large_mesh_checks_and_thread_count(monkeypatch):
         faces = mesh.faces.copy()
         faces[12345] = faces[12345, ::-1]
         found[threads] = (check_mesh(mesh).as_dict(), edge_summary(faces, n), shells(mesh.faces, n)[1])
+        _assert_edge_shells(faces, n)
     assert found["1"] == found["2"]
     checks, flipped, count = found["1"]
     assert checks["shells"] == count == 2 and flipped.unbalanced == 3 and flipped.odd == 0

@@ -19,7 +19,7 @@ from .threads import threads_for
 # Faces above which edges are matched on several threads: below, starting a thread costs more than it saves.
 _PARALLEL_ABOVE = 1 << 14
 
-__all__ = ["EdgeSummary", "edge_summary", "shells", "FaceGroups", "face_groups", "group_rows", "distinct_faces"]
+__all__ = ["EdgeSummary", "edge_summary", "edge_shells", "shells", "FaceGroups", "face_groups", "group_rows", "distinct_faces"]
 
 
 @record
@@ -98,6 +98,23 @@ def edge_summary(faces, n_vertices, *, arrays=False):
         if name in found:
             found[name] = np.asarray(found[name])
     return EdgeSummary(**found)
+
+
+def edge_shells(faces, n_vertices):
+    """:func:`edge_summary` (without the arrays) and :func:`shells` at once, the shells found beside the edges.
+
+    Returns
+    -------
+    summary : EdgeSummary
+    labels : ndarray, shape (m,), int64, or None
+        Each face's shell as :func:`shells` numbers them; None when there is one shell.
+    count : int
+    """
+    faces = as_indices(faces)
+    found, labels, count = _core.edge_shells(faces, int(n_vertices), threads_for(faces.shape[0], _PARALLEL_ABOVE))
+    for name in ("first_boundary", "first_unbalanced"):
+        found[name] = None if found[name][0] < 0 else found[name]
+    return EdgeSummary(**found), (None if labels is None else np.asarray(labels)), count
 
 
 def shells(faces, n_vertices, *, labels=True):

@@ -17,7 +17,8 @@ from dataclasses import field
 import numpy as np
 
 from ..model.records import record
-from ..core import distinct_faces, edge_summary, face_groups, shells, weld_corners, weld_indexed
+from ..core import distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core.topology import edge_shells
 from ..model.errors import MeshGeometryError, OpenMeshError, WindingError
 from ..model.frames import matvec
 
@@ -156,16 +157,18 @@ def check_shells(mesh, path=None):
     if faces.shape[0] == 0:
         raise MeshGeometryError("the file holds no triangles", path=path,
                                 fix="export the part as a closed surface mesh")
-    if faces.min() < 0 or faces.max() >= vertices.shape[0]:
+    # The shells' union-find runs beside the edges' matching, which checks the indices (issue 24: no passes of
+    # their own); for an open or misoriented mesh the shells are not used, and the refusal is the edges'.
+    try:
+        edges, labels, n_shells = edge_shells(faces, vertices.shape[0])
+    except IndexError:
         raise MeshGeometryError("a face refers to a vertex that does not exist", path=path,
-                                fix="re-export the mesh")
+                                fix="re-export the mesh") from None
     if not np.isfinite(vertices).all():
         _refuse_non_finite(vertices, faces, path)
-    edges = edge_summary(faces, vertices.shape[0])
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
-    labels, n_shells = shells(faces, vertices.shape[0])
-    if n_shells == 1:
+    if labels is None:
         # Every label is 0: one zero seen m times (read-only, no memory), not 8 bytes a face held while the
         # self-intersection search runs, the peak of a large mesh (issue 24).
         labels = np.broadcast_to(np.int64(0), (faces.shape[0],))

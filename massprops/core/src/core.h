@@ -37,6 +37,7 @@ typedef struct {
 
 void advise_huge(void *data, size_t bytes);      /* huge pages for a large array, where offered */
 int grow_reserve(Growable *g, size_t bytes);   /* 0, or -1 when memory ran out */
+void release_free_memory(int64_t bytes_worked); /* after a job on this many bytes: free memory back to the system */
 /* grow_reserve with its common case (room enough) inline */
 static inline int reserve(Growable *g, size_t bytes) { return g->size + bytes <= g->capacity ? 0 : grow_reserve(g, bytes); }
 void grow_free(Growable *g);

@@ -261,6 +261,17 @@ static PyObject *core_weld_indexed(PyObject *self, PyObject *args)
 
 /* ---- topology ------------------------------------------------------------------------------ */
 
+/* An EdgeSummary as the dict topology.py makes an EdgeSummary of. */
+static PyObject *summary_dict(const EdgeSummary *s)
+{
+    return Py_BuildValue("{sLsLsLsLsLsLsLsLs(LL)s(LL)}", "edges", (long long)s->edges, "boundary",
+                         (long long)s->boundary, "odd", (long long)s->odd, "unbalanced", (long long)s->unbalanced,
+                         "nonmanifold", (long long)s->nonmanifold, "max_uses", (long long)s->max_uses, "collapsed",
+                         (long long)s->collapsed, "degenerate_faces", (long long)s->degenerate_faces,
+                         "first_boundary", (long long)s->first_boundary[0], (long long)s->first_boundary[1],
+                         "first_unbalanced", (long long)s->first_unbalanced[0], (long long)s->first_unbalanced[1]);
+}
+
 static PyObject *core_edge_summary(PyObject *self, PyObject *args)
 {
     PyObject *face_object, *result;
@@ -284,12 +295,7 @@ static PyObject *core_edge_summary(PyObject *self, PyObject *args)
         free(arrays.balance);
         return raise_failure(&failure, NULL);
     }
-    result = Py_BuildValue("{sLsLsLsLsLsLsLsLs(LL)s(LL)}", "edges", (long long)s.edges, "boundary", (long long)s.boundary,
-                           "odd", (long long)s.odd, "unbalanced", (long long)s.unbalanced, "nonmanifold",
-                           (long long)s.nonmanifold, "max_uses", (long long)s.max_uses, "collapsed",
-                           (long long)s.collapsed, "degenerate_faces", (long long)s.degenerate_faces, "first_boundary", (long long)s.first_boundary[0],
-                           (long long)s.first_boundary[1], "first_unbalanced", (long long)s.first_unbalanced[0],
-                           (long long)s.first_unbalanced[1]);
+    result = summary_dict(&s);
     if (result && with_arrays) {
         PyObject *edges = buffer_wrap(arrays.edges, 'q', 8, (Py_ssize_t)arrays.count, 2);
         PyObject *uses = buffer_wrap(arrays.uses, 'i', 4, (Py_ssize_t)arrays.count, 0);
@@ -302,6 +308,36 @@ static PyObject *core_edge_summary(PyObject *self, PyObject *args)
         Py_XDECREF(balance);
     }
     return result;
+}
+
+static PyObject *core_edge_shells(PyObject *self, PyObject *args)
+{
+    PyObject *face_object, *summary;
+    Py_buffer faces;
+    Py_ssize_t n, m;
+    int threads, kind, status;
+    EdgeSummary s;
+    ShellResult shells = {0, NULL};
+    Failure failure = {0};
+    if (!PyArg_ParseTuple(args, "Oni", &face_object, &n, &threads)
+            || !(kind = get_array(face_object, &faces, ARRAY_I32 | ARRAY_I64, "faces")))
+        return NULL;
+    m = faces.len / faces.itemsize / 3;
+    Py_BEGIN_ALLOW_THREADS
+    status = edge_shells(faces.buf, kind == ARRAY_I32, m, n, threads, &s, &shells, &failure);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&faces);
+    if (status) {
+        free(shells.labels);
+        return raise_failure(&failure, NULL);
+    }
+    if (!(summary = summary_dict(&s))) {
+        free(shells.labels);
+        return NULL;
+    }
+    if (!shells.labels)
+        return Py_BuildValue("(NOL)", summary, Py_None, (long long)shells.count);
+    return Py_BuildValue("(NNL)", summary, buffer_wrap(shells.labels, 'q', 8, m, 0), (long long)shells.count);
 }
 
 static PyObject *core_shells(PyObject *self, PyObject *args)
@@ -665,6 +701,8 @@ static PyMethodDef methods[] = {
     {"weld_indexed", core_weld_indexed, METH_VARARGS, "weld_indexed(vertices, faces, threads=1) -> (vertices, faces, ignored non-finite unused vertices)"},
     {"edge_summary", core_edge_summary, METH_VARARGS, "edge_summary(faces, n, threads, arrays) -> dict"},
     {"shells", core_shells, METH_VARARGS, "shells(faces, n, labels) -> (labels or None, count)"},
+    {"edge_shells", core_edge_shells, METH_VARARGS,
+     "edge_shells(faces, n, threads) -> (edge_summary's dict, shell labels or None when one shell, shell count)"},
     {"unused_vertices", core_unused_vertices, METH_VARARGS,
      "unused_vertices(faces, n) -> (vertices no face uses, whether an index is outside [0, n))"},
     {"row_groups", core_row_groups, METH_VARARGS, "row_groups(rows, columns) -> (labels, first, same, opposite)"},

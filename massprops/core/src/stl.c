@@ -97,8 +97,11 @@ static int binary_source(void *context, int64_t first, int64_t count, double *po
 static int read_binary(int fd, int64_t count, int threads, MeshArrays *out, Failure *failure)
 {
     BinaryFile file = {fd, count};
+    int status;
     out->binary = 1;
-    return weld_source(binary_source, &file, 3 * count, threads, out, failure);
+    status = weld_source(binary_source, &file, 3 * count, threads, out, failure);
+    release_free_memory(RECORD * count);          /* the weld's tables, freed */
+    return status;
 }
 
 /* ---- ASCII ----------------------------------------------------------------------------- */

@@ -46,6 +46,24 @@ int check_indices(const void *faces, int faces32, int64_t m, int64_t n, Failure 
     return 0;
 }
 
+static inline int32_t find_root(int32_t *parent, int32_t v)
+{
+    while (parent[v] != v) {
+        parent[v] = parent[parent[v]];                 /* path halving */
+        v = parent[v];
+    }
+    return v;
+}
+
+static inline void join(int32_t *parent, int32_t a, int32_t b)
+{
+    int32_t ra = find_root(parent, a), rb = find_root(parent, b);
+    if (ra < rb)
+        parent[rb] = ra;
+    else if (rb < ra)
+        parent[ra] = rb;
+}
+
 /* ---- edges ------------------------------------------------------------------------------ */
 
 #define VERTEX_BLOCK 4096
@@ -59,6 +77,10 @@ typedef struct {
     EdgeSummary *blocks;        /* one summary per block of VERTEX_BLOCK vertices */
     int64_t parts;              /* counting and filing: the vertex range split in this many parts */
     int64_t *collapsed, *degenerate;   /* per part: directed edges a -> a, faces with a repeated vertex */
+    int32_t *parent;            /* edge_shells: the shells' union-find over vertices (NULL: no shells) */
+    int checked;                /* edge_shells: the passes check the indices (not checked before) */
+    int outside[2];             /* edge_shells: a face refers to no vertex (found by the counting, the joining) */
+    int64_t *roots;             /* edge_shells: per block of VERTEX_BLOCK vertices, roots with an edge filed */
 } EdgeWork;
 
 /* The three corners of face f. */
@@ -88,6 +110,11 @@ typedef struct {
             (w)->entries[(w)->offsets[lower_]++] = (uint32_t)(higher_ << 1) | (uint32_t)((tail) > (head)); \
     } while (0)
 
+/* Whether a face's corner is outside [0, n), in the passes that check the indices themselves. */
+#define OUTSIDE(w, a, b, c)                                                                      \
+    ((w)->checked && ((uint64_t)(a) >= (uint64_t)(w)->n || (uint64_t)(b) >= (uint64_t)(w)->n     \
+                      || (uint64_t)(c) >= (uint64_t)(w)->n))
+
 static void count_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
@@ -95,6 +122,10 @@ static void count_part(void *arg, int64_t part)
             degenerate = 0;
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[0] = 1;
+            break;
+        }
         COUNT(w, a, b, low, high);
         COUNT(w, b, c, low, high);
         COUNT(w, c, a, low, high);
@@ -276,10 +307,17 @@ static void summary_init(EdgeSummary *s)
 static void group_block(void *arg, int64_t block)
 {
     EdgeWork *w = arg;
-    int64_t v, last = (block + 1) * VERTEX_BLOCK < w->n ? (block + 1) * VERTEX_BLOCK : w->n;
+    int64_t v, last = (block + 1) * VERTEX_BLOCK < w->n ? (block + 1) * VERTEX_BLOCK : w->n, roots = 0;
     summary_init(&w->blocks[block]);
     for (v = block * VERTEX_BLOCK; v < last; v++)
         group_vertex(w, v, &w->blocks[block], NULL, NULL);
+    if (w->parent) {
+        /* A shell's root is its smallest vertex, so its edges are filed under it: unless the shell is
+         * one vertex of collapsed faces (a, a, a), which edge_shells counts from the faces instead. */
+        for (v = block * VERTEX_BLOCK; v < last; v++)
+            roots += w->parent[v] == v && w->offsets[v + 1] > w->offsets[v];
+        w->roots[block] = roots;
+    }
 }
 
 static void merge_summary(EdgeSummary *into, const EdgeSummary *s)
@@ -307,13 +345,83 @@ static void append_edge(void *ctx, int64_t low, int64_t high, int64_t uses, int6
     a->count++;
 }
 
+/* edge_shells: the union-find of the shells (block 0) beside the edges' counting (block 1); then the
+ * filing in parts, so on two threads the shells cost little time of their own. */
+static void join_faces(EdgeWork *w)
+{
+    int64_t f, a, b, c;
+    for (f = 0; f < w->n; f++)
+        w->parent[f] = (int32_t)f;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[1] = 1;
+            return;
+        }
+        join(w->parent, (int32_t)a, (int32_t)b);
+        join(w->parent, (int32_t)a, (int32_t)c);
+    }
+}
+
+static void shells_or_edges(void *arg, int64_t block)
+{
+    if (block == 0)
+        join_faces(arg);
+    else
+        count_part(arg, 0);
+}
+
+/* Number the shells of w->parent's union-find by first face: their count, and each face's shell in
+ * labels (when not NULL).  -1 when memory ran out. */
+static int64_t number_shells(const EdgeWork *w, int64_t *labels)
+{
+    int32_t *number = malloc((size_t)(w->n > 0 ? w->n : 1) * sizeof *number);
+    int64_t f, a, b, c, shells = 0;
+    if (!number)
+        return -1;
+    memset(number, 0xFF, (size_t)w->n * sizeof *number);
+    for (f = 0; f < w->m; f++) {
+        int32_t root;
+        CORNERS(w, f, a, b, c);
+        (void)b;
+        (void)c;
+        root = find_root(w->parent, (int32_t)a);
+        if (number[root] < 0)
+            number[root] = (int32_t)shells++;
+        if (labels)
+            labels[f] = number[root];
+    }
+    free(number);
+    return shells;
+}
+
+static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                     EdgeArrays *arrays, ShellResult *shells, Failure *failure);
+
 int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
                  EdgeArrays *arrays, Failure *failure)
 {
-    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 1, NULL, NULL};
+    return edge_work(faces, faces32, m, n, threads, out, arrays, NULL, failure);
+}
+
+int edge_shells(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                ShellResult *shells, Failure *failure)
+{
+    return edge_work(faces, faces32, m, n, threads, out, NULL, shells, failure);
+}
+
+static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                     EdgeArrays *arrays, ShellResult *shells, Failure *failure)
+{
+    EdgeWork w = {faces, faces32, m, n, NULL, NULL, NULL, 1, NULL, NULL, NULL, 0, {0, 0}, NULL};
     int64_t blocks = (n + VERTEX_BLOCK - 1) / VERTEX_BLOCK, v, k, collapsed = 0, degenerate = 0;
     summary_init(out);
-    if (check_indices(faces, faces32, m, n, failure) != 0)
+    if (shells) {
+        shells->count = 0;
+        shells->labels = NULL;
+    }
+    /* edge_shells checks the indices in its passes (the first face outside is then found from the start) */
+    if (check_indices(faces, faces32, shells ? 0 : m, n, failure) != 0)
         return -1;
     if (3 * m >= ((int64_t)1 << 32)) {
         fail(failure, ERR_VALUE, "split the mesh into parts", "more than 1.4 billion triangles: too many for the checks");
@@ -331,12 +439,32 @@ int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threa
         fail(failure, ERR_MEMORY, NULL, "out of memory");
         goto done;
     }
-    parallel_blocks(threads, w.parts, count_part, &w);
+    if (shells) {
+        int64_t parts = w.parts;
+        w.parts = 1;                               /* counted on one part, beside the joining */
+        w.parent = malloc((size_t)(n > 0 ? n : 1) * sizeof *w.parent);
+        w.roots = calloc((size_t)(blocks > 0 ? blocks : 1), sizeof *w.roots);
+        if (!w.parent || !w.roots) {
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
+            goto done;
+        }
+        w.checked = 1;
+        parallel_blocks(threads, 2, shells_or_edges, &w);
+        if ((w.outside[0] || w.outside[1]) && check_indices(faces, faces32, m, n, failure) != 0)
+            goto done;
+        w.checked = 0;
+        w.parts = parts;
+        for (v = 0; v < n; v++)
+            w.offsets[v + 1] += w.offsets[v];
+        parallel_blocks(threads, w.parts, file_part, &w);
+    } else {
+        parallel_blocks(threads, w.parts, count_part, &w);
+        for (v = 0; v < n; v++)
+            w.offsets[v + 1] += w.offsets[v];
+        parallel_blocks(threads, w.parts, file_part, &w);
+    }
     collapsed = w.collapsed[0];
     degenerate = w.degenerate[0];
-    for (v = 0; v < n; v++)
-        w.offsets[v + 1] += w.offsets[v];
-    parallel_blocks(threads, w.parts, file_part, &w);
     for (v = n; v > 0; v--)                            /* filing advanced each start to the next one's */
         w.offsets[v] = w.offsets[v - 1];
     w.offsets[0] = 0;
@@ -363,34 +491,40 @@ int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threa
     }
     out->collapsed = collapsed;
     out->degenerate_faces = degenerate;
+    if (shells) {
+        shells->count = 0;
+        for (k = 0; k < blocks; k++)
+            shells->count += w.roots[k];
+        /* labels when there is more than one shell; faces (a, a, a) may hold shells without edges */
+        if (degenerate || shells->count != 1) {
+            free(w.offsets);                       /* not needed any more: less memory alive at once */
+            free(w.entries);
+            w.offsets = NULL;
+            w.entries = NULL;
+            shells->labels = malloc((size_t)(m > 0 ? m : 1) * sizeof *shells->labels);
+            shells->count = shells->labels ? number_shells(&w, shells->labels) : -1;
+            if (shells->count < 0) {
+                fail(failure, ERR_MEMORY, NULL, "out of memory");
+            }
+            if (shells->count <= 1) {
+                free(shells->labels);
+                shells->labels = NULL;
+            }
+        }
+    }
 done:
+    free(w.parent);
+    free(w.roots);
     free(w.offsets);
     free(w.entries);
     free(w.blocks);
     free(w.collapsed);
     free(w.degenerate);
+    release_free_memory(3 * m * (int64_t)sizeof(int64_t));
     return failure->kind == ERR_NONE ? 0 : -1;
 }
 
 /* ---- shells -------------------------------------------------------------------------------- */
-
-static inline int32_t find_root(int32_t *parent, int32_t v)
-{
-    while (parent[v] != v) {
-        parent[v] = parent[parent[v]];                 /* path halving */
-        v = parent[v];
-    }
-    return v;
-}
-
-static inline void join(int32_t *parent, int32_t a, int32_t b)
-{
-    int32_t ra = find_root(parent, a), rb = find_root(parent, b);
-    if (ra < rb)
-        parent[rb] = ra;
-    else if (rb < ra)
-        parent[ra] = rb;
-}
 
 int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *labels, int64_t *count,
                 Failure *failure)

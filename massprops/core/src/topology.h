@@ -31,6 +31,16 @@ int unused_vertices(const void *faces, int faces32, int64_t m, int64_t n, int64_
 int check_indices(const void *faces, int faces32, int64_t m, int64_t n, Failure *failure);
 int edge_summary(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
                  EdgeArrays *arrays, Failure *failure);
+/* Shells (connected components of faces sharing a vertex): their count, and each face's shell
+ * (numbered by first face) in labels, malloc'd, only when there is more than one (else NULL). */
+typedef struct {
+    int64_t count;
+    int64_t *labels;
+} ShellResult;
+/* edge_summary (without the arrays) and the shells at once: the shells' union-find runs beside the
+ * edges' counting; the same counts, shells and labels as edge_summary and face_shells. */
+int edge_shells(const void *faces, int faces32, int64_t m, int64_t n, int threads, EdgeSummary *out,
+                ShellResult *shells, Failure *failure);
 int face_shells(const void *faces, int faces32, int64_t m, int64_t n, int64_t *labels, int64_t *count,
                 Failure *failure);
 /* Group rows of `columns` indices by their set of indices (labels and first rows in order of first
