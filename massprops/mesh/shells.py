@@ -15,9 +15,9 @@ import numpy as np
 
 from ..core import _core
 from ..core.frame import check_box_range
-from ..core.intersect import ExactGeometry
+from ..core.intersect import ExactGeometry, _extension
 from ..model.errors import MeshGeometryError
-from .solid import Solid, shell_six_volumes, swept_volume
+from .solid import Solid, shell_six_volumes, swept_sum, swept_volume
 
 __all__ = ["solid_of", "resolve_shells", "joined_groups"]
 
@@ -220,17 +220,15 @@ def _with_pieces(geometry, vertices, arranged):
     if arranged.points.shape[0] == 0:
         return vertices, 0.0
     frame = geometry.frame
-    power = math.ldexp(1.0, frame.scale_exp)
-    offset = arranged.points * power
-    reference = np.asarray(frame.reference, dtype=np.float64)
-    points = reference + offset
-    back = points - reference
-    added = np.abs((reference - (points - back)) + (offset - back))      # two-sum: the addition's exact error
-    moved = np.linalg.norm(arranged.rounding * power + added, axis=1) * (1 + 1e-9)
-    combined = np.vstack([vertices, points])
-    n = vertices.shape[0]
-    swept = swept_volume(combined, arranged.pieces, np.arange(n, n + points.shape[0]), moved, apex=reference)
-    return combined, swept
+    # One compiled pass (isect/swept.c) for the corners in mesh units, each one's move (its rounding plus the
+    # addition's exact error, Knuth's two-sum) and the terms of swept_volume(..., apex=reference); numpy sums
+    # the terms as swept_volume does, so the bound is the same double.
+    combined, faces, walls, _ = _extension().swept(
+        np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(arranged.points, dtype=np.float64),
+        np.ascontiguousarray(arranged.rounding, dtype=np.float64), math.ldexp(1.0, frame.scale_exp),
+        np.ascontiguousarray(frame.reference, dtype=np.float64), np.ascontiguousarray(arranged.pieces, dtype=np.int64))
+    combined = np.frombuffer(combined, dtype=np.float64).reshape(-1, 3)
+    return combined, swept_sum(np.frombuffer(faces, dtype=np.float64), np.frombuffer(walls, dtype=np.float64))
 
 
 def _flat_shells(geometry, faces, labels, shells, zero_area):

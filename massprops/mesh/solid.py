@@ -41,7 +41,7 @@ from ..core.arrays import as_indices
 from ..core import shells as count_shells
 
 __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
-           "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
+           "shell_six_volumes", "swept_volume", "swept_sum", "widened", "overlap_warning"]
 
 
 @record
@@ -282,14 +282,21 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     perimeter = lengths[:k] + lengths[k:2 * k] + lengths[2 * k:3 * k]
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    total = float(np.add.reduce(np.add.reduce(around, axis=1) * enlarged)) / 3.0
-    if apex is not None:
-        total += _unmatched_walls(points, faces, delta, largest, apex)
+    walls = _unmatched_walls(points, faces, delta, largest, apex) if apex is not None else None
+    return swept_sum(np.add.reduce(around, axis=1) * enlarged, walls)
+
+
+def swept_sum(face_terms, wall_terms=None):
+    """:func:`swept_volume` from its terms: per face around a moved vertex, and per unmatched wall (apex)."""
+    total = float(np.add.reduce(face_terms)) / 3.0
+    if wall_terms is not None:
+        total += float(np.add.reduce(wall_terms)) / 3.0 * (1 + 1e-9)
     return total * (1 + 1e-9)
 
 
 def _unmatched_walls(points, faces, delta, largest, apex):
-    """Cones from ``apex`` over the walls of moved edges that no reversed edge cancels (see swept_volume).
+    """Cones from ``apex`` over the walls of moved edges that no reversed edge cancels (see swept_volume), each
+    three times its volume bound before widening (:func:`swept_sum` adds them).
 
     An edge used once each way by two triangles sweeps one wall twice, with
     opposite signs: its cones cancel exactly.  Only the surplus of each
@@ -314,7 +321,7 @@ def _unmatched_walls(points, faces, delta, largest, apex):
     lengths = np.linalg.norm(np.concatenate([pj - pi, pi - apex, pj - apex]), axis=1)   # row by row, as three calls
     wall = (lengths[:k] + largest) * (delta[i] + delta[j])
     reach = np.maximum(lengths[k:2 * k], lengths[2 * k:]) + largest
-    return float(np.add.reduce(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
+    return surplus * wall * reach
 
 
 def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):

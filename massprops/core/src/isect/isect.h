@@ -213,6 +213,15 @@ void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64
  * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
 
+/* The arrangement's new corners Q (q, 3, scaled) in mesh units (reference + Q * power, into points after
+ * the n vertices V), each one's move (its rounding R * power plus the addition's exact error), and the
+ * terms of the volume those moves may sweep across the pieces F (k, 3): one per face around a moved
+ * corner, one per directed edge of those faces that its reverse does not cancel (swept.c).  0, or -1
+ * when memory ran out; the terms are malloc'd. */
+int swept_pieces(const double *V, int64_t n, const double *Q, const double *R, int64_t q, double power,
+                 const double *ref, const int64_t *F, int64_t k, double *points, double *largest,
+                 double **face_terms, int64_t *n_faces, double **wall_terms, int64_t *n_walls);
+
 /* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
  * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;
  * the net weight of the faces on the point (its face and those of plist[pbegin[q] .. pbegin[q + 1]),

@@ -10,6 +10,7 @@
  *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
  *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
+ *   swept(V, Q, R, power, ref, F)    the new corners in mesh units and their swept volume's terms (swept.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -491,6 +492,62 @@ static PyObject *py_refine(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+static PyObject *py_swept(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *qo, *ro, *reo, *fo;
+    double power;
+    if (!PyArg_ParseTuple(args, "OOOdOO", &vo, &qo, &ro, &power, &reo, &fo))
+        return NULL;
+    Py_buffer vb, qb, rb, eb, fb;
+    if (get_three(vo, fo, qo, &vb, &fb, &qb, 24, 0, "points") < 0)
+        return NULL;
+    if (get_buffer(ro, &rb, 24, 0, "rounding") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb);
+        return NULL;
+    }
+    if (get_buffer(reo, &eb, 24, 0, "reference") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb), PyBuffer_Release(&rb);
+        return NULL;
+    }
+    Py_ssize_t n = vb.len / 24, q = qb.len / 24, k = fb.len / 24;
+    const char *bad = vb.len % 24 ? "vertices must be (n, 3)"
+                      : fb.len % 24 ? "faces must be (k, 3)"
+                      : rb.len != qb.len ? "one rounding per point"
+                      : eb.len != 24 ? "the reference is one point" : NULL;
+    PyObject *points = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * (n + q));
+    double largest = 0.0, *face_terms = NULL, *wall_terms = NULL;
+    int64_t n_faces = 0, n_walls = 0;
+    int code = 0;
+    if (points) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, k, n + q);
+        if (!bad)
+            code = swept_pieces(vb.buf, n, qb.buf, rb.buf, q, power, eb.buf, fb.buf, k,
+                                (double *)PyBytes_AS_STRING(points), &largest, &face_terms, &n_faces,
+                                &wall_terms, &n_walls);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb), PyBuffer_Release(&rb);
+    PyBuffer_Release(&eb);
+    PyObject *result = NULL;
+    if (points && !bad && code == 0) {
+        PyObject *faces = PyBytes_FromStringAndSize((const char *)face_terms, 8 * n_faces);
+        PyObject *walls = PyBytes_FromStringAndSize((const char *)wall_terms, 8 * n_walls);
+        if (faces && walls)
+            result = Py_BuildValue("NNNd", points, faces, walls, largest);
+        else
+            Py_XDECREF(points), Py_XDECREF(faces), Py_XDECREF(walls);
+    } else {
+        Py_XDECREF(points);
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else if (code < 0)
+            PyErr_NoMemory();
+    }
+    free(face_terms), free(wall_terms);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -517,6 +574,10 @@ static PyMethodDef methods[] = {
     {"refine", py_refine, METH_VARARGS,
      "refine(vertices, faces, definitions (k, 7), points (k, 3), errors (k, 3), threads): the points rounded\n"
      "again from their exact values where that certifies a smaller error (in place) (arrange.c)"},
+    {"swept", py_swept, METH_VARARGS,
+     "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
+     "-> (vertices and new points in mesh units (bytes), terms per face around a moved corner (bytes), terms\n"
+     "per uncancelled directed edge (bytes), largest move) (swept.c)"},
     {NULL, NULL, 0, NULL},
 };
 
