@@ -15,11 +15,24 @@ import numpy as np
 
 from ..core import _core
 from ..core.frame import check_box_range
+from ..core import intersect
 from ..core.intersect import ExactGeometry, _extension
 from ..model.errors import MeshGeometryError
 from .solid import Solid, shell_six_volumes, swept_sum, swept_volume
 
 __all__ = ["solid_of", "resolve_shells", "joined_groups"]
+
+
+_LOADED = []
+
+
+def _arrangement():
+    """:mod:`massprops.mesh.arrangement`, imported when first needed (an import statement inside the
+    function costs ~10 us a call; importing it here would slow every start)."""
+    if not _LOADED:
+        from . import arrangement
+        _LOADED.append(arrangement)
+    return _LOADED[0]
 
 
 def _geometry(vertices):
@@ -149,7 +162,7 @@ def _decide(units, classes):
 
 def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     """The solid of a soup whose faces meet or repeat, through the exact arrangement."""
-    from .arrangement import arrange
+    arrange = _arrangement().arrange
     vertices, faces = mesh.vertices, mesh.faces
     m = faces.shape[0]
     weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
@@ -233,7 +246,6 @@ def _with_pieces(geometry, vertices, arranged):
 
 def _flat_shells(geometry, faces, labels, shells, zero_area):
     """How many of ``shells`` lie in one plane (exactly); ``zero_area`` flags the faces of zero area."""
-    from ..core.intersect import orient3d_signs
     flat = 0
     for shell in shells.tolist():
         mine = labels == shell
@@ -245,7 +257,7 @@ def _flat_shells(geometry, faces, labels, shells, zero_area):
         a, b, c = geometry.vertices[faces[usable[0]]]
         points = np.stack([np.broadcast_to(a, (corners.size, 3)), np.broadcast_to(b, (corners.size, 3)),
                            np.broadcast_to(c, (corners.size, 3)), geometry.vertices[corners]], axis=1)
-        flat += int(not np.any(orient3d_signs(points)))
+        flat += int(not np.any(intersect.orient3d_signs(points)))
     return flat
 
 

@@ -76,7 +76,7 @@ static PyObject *py_degenerate(PyObject *self, PyObject *args)
     if (!bad)
         bad = bad_faces(F, m, vb.len / 24);
     for (Py_ssize_t t = 0; t < m && !bad; t++)
-        out[t] = triangle_axis(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]) < 0;
+        out[t] = !has_area(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]);   /* filter first */
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&vb);
     PyBuffer_Release(&fb);
