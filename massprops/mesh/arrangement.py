@@ -675,18 +675,11 @@ class _Compiled:
             labels[chosen[q]] = (w, n, bool(o))
 
     def fans(self, cells, outward):
-        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward``."""
-        start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
-        fan = count - 2                                   # triangles per cell
-        owner = np.repeat(np.arange(cells.size), fan)
-        step = np.arange(owner.size) - np.repeat(np.cumsum(fan) - fan, fan) + 1   # 1 .. count - 2
-        first = start[owner]
-        triangles = np.stack([first, first + step, first + step + 1], axis=1)
-        # a cell turned inward is fanned from its last corner, as the exact path's reversed polygon
-        flip = ~outward[owner]
-        last = (start + count - 1)[owner][flip]
-        triangles[flip] = np.stack([last, last - step[flip], last - step[flip] - 1], axis=1)
-        return self.corners[triangles]
+        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward`` (a cell turned
+        inward is fanned from its last corner, as the exact path's reversed polygon)."""
+        triangles = _extension().fans(self.starts, self.corners, np.ascontiguousarray(cells, dtype=np.int64),
+                                      np.ascontiguousarray(outward, dtype=bool).view(np.uint8))
+        return np.frombuffer(triangles, dtype=np.int64).reshape(-1, 3)
 
 
 # -- the arrangement -----------------------------------------------------------------------------
@@ -756,20 +749,6 @@ def _patches(faces, cut):
     return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
 
 
-def _distinct_rows(table):
-    """The distinct rows of a float table in lexicographic order, and each row's place among them (as
-    ``np.unique(table, axis=0, return_inverse=True)``, which sorts a structured copy: several times slower)."""
-    if table.shape[0] == 0:
-        return table, np.zeros(0, dtype=np.int64)
-    order = np.lexsort(table.T[::-1])
-    ordered = table[order]
-    first = np.ones(order.size, dtype=bool)
-    np.logical_or.reduce(ordered[1:] != ordered[:-1], axis=1, out=first[1:])
-    index = np.empty(order.size, dtype=np.int64)
-    index[order] = np.cumsum(first) - 1
-    return ordered[first], index
-
-
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
     """The faces and cut pieces that bound ``{w > 0}`` (see the module docstring).
 
@@ -792,6 +771,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     -------
     Arrangement
     """
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
     soup = _Soup(geometry, faces, weights)
     m = faces.shape[0]
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
@@ -861,31 +841,29 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         triangles.append(compiled.fans(fanned, outward[fanned]))
     out = np.zeros((0, 3), dtype=np.int64)
     if uncut.size:
-        # each face takes its patch's side: +1 kept as it is, -1 turned, 0 (and every cut face) left out
+        # each face takes its patch's side: +1 kept as it is, -1 turned (after those kept), 0 (and every cut
+        # face) left out
         side = np.zeros(m, dtype=np.int8)
         side[roots] = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
-        signs = side[patch]
-        out = np.compress(signs > 0, faces, axis=0).astype(np.int64, copy=False)   # (compress: ~4x a boolean index)
-        turned = np.compress(signs < 0, faces, axis=0)
-        if turned.size:
-            out = np.concatenate([out, turned[:, ::-1]]).astype(np.int64, copy=False)
-    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0]
+        out = np.frombuffer(_extension().patch_faces(faces, patch, side), dtype=np.int64).reshape(-1, 3)
+    # (a copy where the fans alone are the pieces: their new corners are renumbered in place below)
+    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0].copy()
     points, rounding = kept_corners.points()
     n = soup.scaled.shape[0]
-    new = pieces >= n
-    used = np.unique(pieces[new]) - n
+    before = 0 if compiled is None else compiled.points.shape[0]
+    q = before + points.shape[0]
     # the new corners the kept pieces use (ascending: the compiled core's first, numbered ahead of the exact
     # path's), each with its rounding bound
+    used = np.frombuffer(_extension().used_corners(pieces, n, q), dtype=np.int64)
     table = np.empty((used.size, 6))
-    before = 0 if compiled is None else compiled.points.shape[0]
     mine = used[:np.searchsorted(used, before)]
     if mine.size:
         # the compiled corners the kept pieces use, rounded from their exact values
         table[:mine.size, :3], table[:mine.size, 3:] = compiled.rounded(mine)
-    table[mine.size:, :3], table[mine.size:, 3:] = points[used[mine.size:] - before], rounding[used[mine.size:] - before]
-    # one for points that round alike with the same bound
-    rows, index = _distinct_rows(table)
-    renumber = np.full(before + points.shape[0], -1, dtype=np.int64)
-    renumber[used] = index + n
-    pieces[new] = renumber[pieces[new] - n]
+    if used.size > mine.size:
+        theirs = used[mine.size:] - before
+        table[mine.size:, :3], table[mine.size:, 3:] = points[theirs], rounding[theirs]
+    # one for points that round alike with the same bound, in lexicographic order (as np.unique(table, axis=0));
+    # the pieces' new corners renumbered to them
+    rows = np.frombuffer(_extension().distinct_corners(table, used, q, n, pieces), dtype=np.float64).reshape(-1, 6)
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

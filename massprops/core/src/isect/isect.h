@@ -213,6 +213,21 @@ void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64
  * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
 int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
 
+/* The kept pieces put together (assemble.c).  fan_cells: cells[i] (its corners corners[starts[c] ..
+ * starts[c + 1]]) fanned into fan_count(...) triangles, from its first corner, or from its last one
+ * turned where not outward[i].  patch_faces: the faces whose patch has side > 0 in order, then those
+ * with side < 0 reversed; their count.  used_corners: the new corners (n + j, j < q) the triangles T use,
+ * ascending; their count, or -1.  distinct_corners: the rows table[i] (6 doubles: point, rounding) of
+ * corners used[i], distinct in numpy's lexicographic order into rows; T's new corners renumbered to
+ * n + their row; the rows' count, or -1. */
+int64_t fan_count(const int64_t *starts, const int64_t *cells, int64_t k);
+void fan_cells(const int64_t *starts, const int64_t *corners, const int64_t *cells, const uint8_t *outward,
+               int64_t k, int64_t *out);
+int64_t patch_faces(const int64_t *F, int64_t m, const int64_t *patch, const int8_t *side, int64_t *out);
+int64_t used_corners(const int64_t *T, int64_t k, int64_t n, int64_t q, int64_t *used);
+int64_t distinct_corners(const double *table, int64_t u, const int64_t *used, int64_t q, int64_t n, int64_t *T,
+                         int64_t k, double *rows);
+
 /* The arrangement's new corners Q (q, 3, scaled) in mesh units (reference + Q * power, into points after
  * the n vertices V), each one's move (its rounding R * power plus the addition's exact error), and the
  * terms of the volume those moves may sweep across the pieces F (k, 3): one per face around a moved

@@ -11,6 +11,7 @@
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
  *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
  *   swept(V, Q, R, power, ref, F)    the new corners in mesh units and their swept volume's terms (swept.c)
+ *   fans, patch_faces, used_corners, distinct_corners: the kept pieces put together (assemble.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -548,6 +549,134 @@ static PyObject *py_swept(PyObject *self, PyObject *args)
     return result;
 }
 
+/* ---- the kept pieces put together (assemble.c) ---------------------------------------------- */
+
+/* Up to four C-contiguous buffers of the item sizes given (0: none); all or none are held. */
+static int get_many(PyObject **objs, Py_buffer *views, const Py_ssize_t *itemsizes, const int *writable, int k)
+{
+    for (int i = 0; i < k; i++)
+        if (get_buffer(objs[i], views + i, itemsizes[i], writable[i], "array") < 0) {
+            while (i-- > 0)
+                PyBuffer_Release(views + i);
+            return -1;
+        }
+    return 0;
+}
+
+static void release_many(Py_buffer *views, int k)
+{
+    for (int i = 0; i < k; i++)
+        PyBuffer_Release(views + i);
+}
+
+static PyObject *py_fans(PyObject *self, PyObject *args)
+{
+    PyObject *o[4];
+    Py_buffer b[4];
+    if (!PyArg_ParseTuple(args, "OOOO", o, o + 1, o + 2, o + 3)
+        || get_many(o, b, (Py_ssize_t[]){8, 8, 8, 1}, (int[]){0, 0, 0, 0}, 4) < 0)
+        return NULL;
+    const int64_t *starts = b[0].buf, *cells = b[2].buf;
+    Py_ssize_t n_starts = b[0].len / 8, n_corners = b[1].len / 8, k = b[2].len / 8;
+    const char *bad = b[3].len != k ? "one outward flag per cell" : NULL;
+    for (Py_ssize_t i = 0; i < k && !bad; i++)
+        if (cells[i] < 0 || cells[i] + 1 >= n_starts || starts[cells[i]] < 0
+            || starts[cells[i] + 1] - starts[cells[i]] < 2 || starts[cells[i] + 1] > n_corners)
+            bad = "a cell does not exist or has fewer than two corners";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * fan_count(starts, cells, k));
+    if (out)
+        fan_cells(starts, b[1].buf, cells, b[3].buf, k, (int64_t *)PyBytes_AS_STRING(out));
+    release_many(b, 4);
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    return out;
+}
+
+static PyObject *py_patch_faces(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    Py_buffer b[3];
+    if (!PyArg_ParseTuple(args, "OOO", o, o + 1, o + 2)
+        || get_many(o, b, (Py_ssize_t[]){24, 8, 1}, (int[]){0, 0, 0}, 3) < 0)
+        return NULL;
+    Py_ssize_t m = b[0].len / 24;
+    const int64_t *patch = b[1].buf;
+    const char *bad = b[1].len / 8 != m ? "one patch per face" : NULL;
+    for (Py_ssize_t t = 0; t < m && !bad; t++)
+        if (patch[t] < 0 || patch[t] >= b[2].len)
+            bad = "a patch has no side";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * m);
+    if (out) {
+        int64_t k = patch_faces(b[0].buf, m, patch, b[2].buf, (int64_t *)PyBytes_AS_STRING(out));
+        if (k < m)
+            _PyBytes_Resize(&out, 24 * k);
+    }
+    release_many(b, 3);
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    return out;
+}
+
+static PyObject *py_used_corners(PyObject *self, PyObject *args)
+{
+    PyObject *to;
+    long long n, q;
+    Py_buffer tb;
+    if (!PyArg_ParseTuple(args, "OLL", &to, &n, &q) || get_buffer(to, &tb, 24, 0, "triangles") < 0)
+        return NULL;
+    PyObject *out = q >= 0 ? PyBytes_FromStringAndSize(NULL, 8 * q) : NULL;
+    int64_t u = out ? used_corners(tb.buf, tb.len / 24, n, q, (int64_t *)PyBytes_AS_STRING(out)) : 0;
+    PyBuffer_Release(&tb);
+    if (u < 0) {
+        Py_XDECREF(out);
+        return PyErr_NoMemory();
+    }
+    if (out && u < q)
+        _PyBytes_Resize(&out, 8 * u);
+    else if (!out && q < 0)
+        PyErr_SetString(PyExc_ValueError, "no new corners below none");
+    return out;
+}
+
+static PyObject *py_distinct_corners(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    Py_buffer b[3];
+    long long n, q;
+    if (!PyArg_ParseTuple(args, "OOLLO", o, o + 1, &q, &n, o + 2)
+        || get_many(o, b, (Py_ssize_t[]){48, 8, 24}, (int[]){0, 0, 1}, 3) < 0)
+        return NULL;
+    Py_ssize_t u = b[0].len / 48, k = b[2].len / 24;
+    const int64_t *used = b[1].buf, *T = b[2].buf;
+    const char *bad = b[1].len / 8 != u ? "one row per corner used" : NULL;
+    for (Py_ssize_t i = 0; i < u && !bad; i++)
+        if (used[i] < 0 || used[i] >= q)
+            bad = "a corner used does not exist";
+    /* every new corner the triangles name must be one of those used (they were found from them) */
+    uint8_t *listed = bad ? NULL : calloc(q > 0 ? q : 1, 1);
+    if (!bad && !listed)
+        bad = "out of memory";
+    for (Py_ssize_t i = 0; i < u && listed; i++)
+        listed[used[i]] = 1;
+    for (Py_ssize_t i = 0; i < 3 * k && !bad; i++)
+        if (T[i] >= n && (T[i] - n >= q || !listed[T[i] - n]))
+            bad = "a triangle names a new corner not listed as used";
+    free(listed);
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 48 * u);
+    if (out) {
+        int64_t r = distinct_corners(b[0].buf, u, used, q, n, b[2].buf, k, (double *)PyBytes_AS_STRING(out));
+        if (r < 0) {
+            Py_CLEAR(out);
+            PyErr_NoMemory();
+        } else if (r < u)
+            _PyBytes_Resize(&out, 48 * r);
+    }
+    release_many(b, 3);
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -578,6 +707,16 @@ static PyMethodDef methods[] = {
      "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
      "-> (vertices and new points in mesh units (bytes), terms per face around a moved corner (bytes), terms\n"
      "per uncancelled directed edge (bytes), largest move) (swept.c)"},
+    {"fans", py_fans, METH_VARARGS,
+     "fans(starts, corners, cells, outward uint8) -> int64 triangles (bytes): the cells fanned (assemble.c)"},
+    {"patch_faces", py_patch_faces, METH_VARARGS,
+     "patch_faces(faces, patch, side int8 per patch) -> int64 faces (bytes): side > 0 as they are, then side < 0\n"
+     "reversed (assemble.c)"},
+    {"used_corners", py_used_corners, METH_VARARGS,
+     "used_corners(triangles, n, q) -> int64 (bytes): the new corners n + j (j < q) used, ascending (assemble.c)"},
+    {"distinct_corners", py_distinct_corners, METH_VARARGS,
+     "distinct_corners(table (u, 6), used, q, n, triangles (writable)) -> float64 rows (bytes): the distinct rows\n"
+     "in lexicographic order; the triangles' new corners renumbered to n + their row (assemble.c)"},
     {NULL, NULL, 0, NULL},
 };
 
