@@ -71,13 +71,13 @@ def handing_back(seed):
 
     counted = arrangement._Compiled.label
 
-    def some(self, soup, pieces, first_patch, labels):
+    def some(self, soup, pieces, first_patch, labels, done):
         # and about half of the rays it counted are counted again by the exact path
-        before = [k for k, label in enumerate(labels) if label is None]
-        counted(self, soup, pieces, first_patch, labels)
+        before = np.flatnonzero(~done).tolist()
+        counted(self, soup, pieces, first_patch, labels, done)
         for k in before:
             if np.random.default_rng([seed, k]).random() < 0.5:
-                labels[k] = None
+                done[k] = False
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(arrangement._Compiled, "__init__", partly)

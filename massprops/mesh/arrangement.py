@@ -646,33 +646,39 @@ class _Compiled:
         p[drop] = offset * denominator - normal[i] * a - normal[j] * c
         return _reduced(*p, n_drop * denominator)
 
-    def label(self, soup, pieces, first_patch, labels):
-        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
-        weight of the faces in their plane that hold their inner point) and patches."""
-        chosen, faces, cells, partners = [], [], [], []
-        for k in range(first_patch):
-            t, cell, _, its_partners, _, _ = pieces[k]
-            if not isinstance(cell, list):
-                chosen.append(k), faces.append(t), cells.append(cell), partners.append(its_partners)
-        for k in range(first_patch, len(pieces)):
-            chosen.append(k), faces.append(pieces[k][0]), partners.append(())
-        if not chosen:
+    def label(self, soup, pieces, first_patch, labels, done):
+        """Fill ``labels`` (and ``done``) where the compiled core settles the count: cells of the compiled cut
+        (with the net weight of the faces in their plane that hold their inner point) and patches
+        (``pieces``, a :class:`_Pieces`, from ``first_patch`` on)."""
+        cells = self.face.shape[0]
+        roots = [piece[0] for piece in pieces.rest[first_patch - cells:]]
+        k = cells + len(roots)
+        if not k:
             return
-        points = np.full((len(chosen), 2), math.nan)             # NaN: a patch's face, asked at its centroid
-        points[:len(cells)] = self.inside[cells, 0]
-        starts = np.zeros(len(chosen) + 1, dtype=np.int64)
-        starts[1:] = np.cumsum([len(p) for p in partners])
-        flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
+        faces = np.concatenate([self.face, np.array(roots, dtype=np.int64)]) if roots else self.face
+        points = np.full((k, 2), math.nan)             # NaN: a patch's face, asked at its centroid
+        points[:cells] = self.inside[:, 0]
+        starts = np.zeros(k + 1, dtype=np.int64)
+        partners = pieces.partners
+        if partners:
+            mine = [partners.get(t, ()) for t in self.face.tolist()]
+            starts[1:cells + 1] = np.cumsum([len(p) for p in mine])
+            starts[cells + 1:] = starts[cells]
+            flat = np.fromiter((u for p in mine for u in p), dtype=np.int64, count=int(starts[-1]))
+        else:
+            flat = starts[:0]
         front, net, owned, status = _extension().labels(
-            soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
-            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64), points, starts, flat,
-            threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
-        answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
-        fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()
-        nets = np.frombuffer(net, dtype=np.int64)[answered].tolist()
-        owns = np.frombuffer(owned, dtype=np.int8)[answered].tolist()
-        for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
-            labels[chosen[q]] = (w, n, bool(o))
+            soup.scaled, soup.faces, np.ascontiguousarray(soup.weights, dtype=np.int64), faces, points, starts,
+            flat, threads_for(k * 64, _PARALLEL_ABOVE))
+        answered = np.frombuffer(status, dtype=np.int8) == 0
+        # query q is piece q for the compiled cells, piece first_patch + (q - cells) for the patches
+        chosen = np.arange(k)
+        chosen[cells:] += first_patch - cells
+        chosen = chosen[answered]
+        labels[chosen, 0] = np.frombuffer(front, dtype=np.int64)[answered]
+        labels[chosen, 1] = np.frombuffer(net, dtype=np.int64)[answered]
+        labels[chosen, 2] = np.frombuffer(owned, dtype=np.int8)[answered] != 0
+        done[chosen] = True
 
     def fans(self, cells, outward):
         """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward`` (a cell turned
@@ -695,7 +701,7 @@ _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
 def _label_cells(soup, pieces, compiled=None, first_patch=None):
-    """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
+    """``(w in front, net weight on the piece, owned)`` (k, 3) for each piece ``(t, cell, normal, partners, i, j)``.
 
     ``cell`` is a list of homogeneous corners (its inner points are weighted
     means of three of them), or the number of a cell of ``compiled`` (a
@@ -706,10 +712,11 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
     (:meth:`_Soup.windings`); a piece whose inner point lies on another face
     is asked again at another inner point.
     """
-    labels = [None] * len(pieces)
+    labels = np.zeros((len(pieces), 3), dtype=np.int64)
+    done = np.zeros(len(pieces), dtype=bool)
     if compiled is not None:
-        compiled.label(soup, pieces, first_patch, labels)
-    pending = [k for k, label in enumerate(labels) if label is None]
+        compiled.label(soup, pieces, first_patch, labels, done)
+    pending = np.flatnonzero(~done).tolist()
     for attempt, weights in enumerate(_TRIES):
         if not pending:
             break
@@ -736,11 +743,36 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
         for k, front, (net, owned) in zip(asked, fronts, nets):
             if front is not None:
                 labels[k] = (front, net, owned)
-        pending = [k for k in pending if labels[k] is None]
+                done[k] = True
+        pending = [k for k in pending if not done[k]]
     if pending:
         raise ArrangementError(f"{len(pending)} pieces of crossing faces lie on other faces at every point tried",
                                fix="report this mesh: the arrangement could not label it")
     return labels
+
+
+class _Pieces:
+    """The pieces to label, in order: the compiled cut's cells (piece k is cell k; as a tuple
+    ``(t, cell, normal, partners, i, j)`` only when the exact path asks for it, normal None: the exact
+    normal is made then), then the exact path's cells and the patches' faces (``rest``)."""
+
+    def __init__(self, compiled, partners):
+        self.compiled, self.partners = compiled, partners
+        self.cells = 0 if compiled is None else compiled.face.shape[0]
+        self.rest = []
+
+    def __len__(self):
+        return self.cells + len(self.rest)
+
+    def __getitem__(self, k):
+        if k >= self.cells:
+            return self.rest[k - self.cells]
+        t = int(self.compiled.face[k])
+        drop = int(self.compiled.drop[t])
+        return (t, k, None, self.partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
+
+    def extend(self, items):
+        self.rest.extend(items)
 
 
 def _patches(faces, cut):
@@ -807,11 +839,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
                     segments.setdefault(x, []).append(segment)
     cut = np.zeros(m, dtype=bool) if compiled is None else compiled.status == 1
     cut[list(segments)] = True
-    pieces = []
-    if compiled is not None:
-        # (normal None: the exact normal is made only if the exact path asks for it)
-        pieces = [(t, c, None, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
-                  for c, (t, drop) in enumerate(zip(compiled.face.tolist(), compiled.drop[compiled.face].tolist()))]
+    pieces = _Pieces(compiled, partners)
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
@@ -824,7 +852,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         # labelled by its lowest face (uncut; a cut face is labelled by itself)
         roots = uncut[patch[uncut] == uncut]
         pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
-    labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
+    labels = _label_cells(soup, pieces, compiled, n_cells)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
     negative = bool(np.any(front < 0) or np.any(behind < 0))
     bounding = (front > 0) != (behind > 0)
