@@ -585,7 +585,8 @@ class _Compiled:
         these two coordinates, rebuilt exactly by :meth:`inner`.
     points, rounding : ndarray, shape (q, 3), float64
         The new corners rounded once, and a certified bound on each coordinate's rounding (the
-        filter's; :meth:`rounded` finds the exact ones).
+        filter's; the kept ones are rounded again from their exact values where that bound exceeds a unit
+        in the last place, in :func:`arrange`).
     definitions : ndarray, shape (q, 7), int64
         How each new corner is defined (kind, then vertices or faces, then the projection's axes).
     """
@@ -606,20 +607,6 @@ class _Compiled:
         self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
         self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
         self.rounding = np.frombuffer(rounding, dtype=np.float64).reshape(-1, 3)
-        self._geometry, self._faces = geometry, faces
-
-    def rounded(self, used):
-        """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
-        exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
-        is within half of one; most intersections of an edge with a plane are already within one)."""
-        points, rounding = self.points[used], self.rounding[used]         # (copies: fancy indexing)
-        loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
-        if loose.size:
-            again, bounds = points[loose], rounding[loose]
-            _extension().refine(self._geometry.vertices, self._faces,
-                                np.ascontiguousarray(self.definitions[used[loose]]), again, bounds, self.threads)
-            points[loose], rounding[loose] = again, bounds
-        return points, rounding
 
     def inner(self, soup, t, cell, attempt, i, j):
         """Inner point ``attempt`` of cell ``cell`` of face ``t`` (homogeneous integers, w > 0), or None.
@@ -877,21 +864,17 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     # (a copy where the fans alone are the pieces: their new corners are renumbered in place below)
     pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0].copy()
     points, rounding = kept_corners.points()
-    n = soup.scaled.shape[0]
-    before = 0 if compiled is None else compiled.points.shape[0]
-    q = before + points.shape[0]
-    # the new corners the kept pieces use (ascending: the compiled core's first, numbered ahead of the exact
-    # path's), each with its rounding bound
-    used = np.frombuffer(_extension().used_corners(pieces, n, q), dtype=np.int64)
-    table = np.empty((used.size, 6))
-    mine = used[:np.searchsorted(used, before)]
-    if mine.size:
-        # the compiled corners the kept pieces use, rounded from their exact values
-        table[:mine.size, :3], table[:mine.size, 3:] = compiled.rounded(mine)
-    if used.size > mine.size:
-        theirs = used[mine.size:] - before
-        table[mine.size:, :3], table[mine.size:, 3:] = points[theirs], rounding[theirs]
-    # one for points that round alike with the same bound, in lexicographic order (as np.unique(table, axis=0));
-    # the pieces' new corners renumbered to them
-    rows = np.frombuffer(_extension().distinct_corners(table, used, q, n, pieces), dtype=np.float64).reshape(-1, 6)
+    # the new corners the kept pieces use (the compiled core's first, numbered ahead of the exact path's), each
+    # with its rounding bound: the compiled core's rounded again from their exact values (with exact
+    # expansions) where the filter's bound exceeds a unit in the last place (an exact rounding is within half
+    # of one; most intersections of an edge with a plane are already within one); one for points that round
+    # alike with the same bound, in lexicographic order (as np.unique(table, axis=0)); the pieces' new corners
+    # renumbered to them
+    if compiled is None:
+        mine = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 7), dtype=np.int64), 1)
+    else:
+        mine = (compiled.points, compiled.rounding, compiled.definitions, compiled.threads)
+    rows = _extension().kept_corners(soup.scaled, faces, pieces, *mine[:3], np.ascontiguousarray(points),
+                                     np.ascontiguousarray(rounding), mine[3])
+    rows = np.frombuffer(rows, dtype=np.float64).reshape(-1, 6)
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

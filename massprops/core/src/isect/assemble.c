@@ -111,3 +111,49 @@ int64_t distinct_corners(const double *table, int64_t u, const int64_t *used, in
     free(order), free(renumber);
     return r + 1;
 }
+
+/* numpy's spacing of a magnitude: the gap to the next double up */
+static inline double spacing(double a) { return nextafter(a, INFINITY) - a; }
+
+int64_t kept_corners(const double *V, const int64_t *F, int64_t n, int64_t *T, int64_t k, const double *P,
+                     const double *R, const int64_t *defs, int64_t qc, const double *EP, const double *ER, int64_t qe,
+                     int threads, double *rows)
+{
+    int64_t q = qc + qe;
+    int64_t *used = malloc(sizeof(int64_t) * (q > 0 ? q : 1));
+    double *table = malloc(sizeof(double) * 6 * (q > 0 ? q : 1));
+    int64_t *loose = malloc(sizeof(int64_t) * (qc > 0 ? qc : 1));
+    int64_t *ldefs = malloc(sizeof(int64_t) * 7 * (qc > 0 ? qc : 1));
+    double *lq = malloc(sizeof(double) * 3 * (qc > 0 ? qc : 1)), *le = malloc(sizeof(double) * 3 * (qc > 0 ? qc : 1));
+    int64_t u = -1, r = -1;
+    if (used && table && loose && ldefs && lq && le)
+        u = used_corners(T, k, n, q, used);
+    if (u >= 0) {
+        int64_t nl = 0, i = 0;
+        for (; i < u && used[i] < qc; i++) {
+            const double *p = P + 3 * used[i], *e = R + 3 * used[i];
+            memcpy(table + 6 * i, p, 3 * sizeof(double));
+            memcpy(table + 6 * i + 3, e, 3 * sizeof(double));
+            /* rounded again from the exact value where the filter's bound exceeds a unit in the last place */
+            if (e[0] > spacing(fabs(p[0])) || e[1] > spacing(fabs(p[1])) || e[2] > spacing(fabs(p[2]))) {
+                memcpy(ldefs + 7 * nl, defs + 7 * used[i], 7 * sizeof(int64_t));
+                memcpy(lq + 3 * nl, p, 3 * sizeof(double));
+                memcpy(le + 3 * nl, e, 3 * sizeof(double));
+                loose[nl++] = i;
+            }
+        }
+        if (nl)
+            refine_points(V, F, ldefs, nl, lq, le, threads);
+        for (int64_t j = 0; j < nl; j++) {
+            memcpy(table + 6 * loose[j], lq + 3 * j, 3 * sizeof(double));
+            memcpy(table + 6 * loose[j] + 3, le + 3 * j, 3 * sizeof(double));
+        }
+        for (; i < u; i++) {
+            memcpy(table + 6 * i, EP + 3 * (used[i] - qc), 3 * sizeof(double));
+            memcpy(table + 6 * i + 3, ER + 3 * (used[i] - qc), 3 * sizeof(double));
+        }
+        r = distinct_corners(table, u, used, q, n, T, k, rows);
+    }
+    free(used), free(table), free(loose), free(ldefs), free(lq), free(le);
+    return r;
+}

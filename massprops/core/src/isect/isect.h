@@ -227,6 +227,13 @@ int64_t patch_faces(const int64_t *F, int64_t m, const int64_t *patch, const int
 int64_t used_corners(const int64_t *T, int64_t k, int64_t n, int64_t q, int64_t *used);
 int64_t distinct_corners(const double *table, int64_t u, const int64_t *used, int64_t q, int64_t n, int64_t *T,
                          int64_t k, double *rows);
+/* kept_corners: the new corners the triangles T use: the compiled cut's (P, R, defined by defs; q < qc),
+ * rounded again from their exact values where the filter's bound exceeds a unit in the last place
+ * (refine_points), then the exact path's (EP, ER); made distinct into rows and renumbered in T as
+ * distinct_corners does.  The rows' count, or -1 when memory ran out. */
+int64_t kept_corners(const double *V, const int64_t *F, int64_t n, int64_t *T, int64_t k, const double *P,
+                     const double *R, const int64_t *defs, int64_t qc, const double *EP, const double *ER, int64_t qe,
+                     int threads, double *rows);
 
 /* The arrangement's new corners Q (q, 3, scaled) in mesh units (reference + Q * power, into points after
  * the n vertices V), each one's move (its rounding R * power plus the addition's exact error), and the

@@ -9,9 +9,8 @@
  *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
  *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
- *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
  *   swept(V, Q, R, power, ref, F)    the new corners in mesh units and their swept volume's terms (swept.c)
- *   fans, patch_faces, used_corners, distinct_corners: the kept pieces put together (assemble.c)
+ *   fans, patch_faces, kept_corners: the kept pieces put together (assemble.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -444,55 +443,6 @@ static PyObject *py_patches(PyObject *self, PyObject *args)
     return out;
 }
 
-static PyObject *py_refine(PyObject *self, PyObject *args)
-{
-    PyObject *vo, *fo, *dobj, *qo, *eo;
-    int threads;
-    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &dobj, &qo, &eo, &threads))
-        return NULL;
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
-    Py_buffer vb, fb, db, qb, eb;
-    if (get_three(vo, fo, dobj, &vb, &fb, &db, 56, 0, "definitions") < 0)
-        return NULL;
-    if (get_buffer(qo, &qb, 24, 1, "points") < 0) {
-        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db);
-        return NULL;
-    }
-    if (get_buffer(eo, &eb, 24, 1, "errors") < 0) {
-        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
-        return NULL;
-    }
-    Py_ssize_t k = db.len / 56, m = fb.len / 24, n = vb.len / 24;
-    const char *bad = qb.len / 24 != k || eb.len / 24 != k ? "one point and one error per definition" : NULL;
-    if (!bad) {
-        Py_BEGIN_ALLOW_THREADS
-        bad = bad_faces(fb.buf, m, n);
-        const int64_t *d = db.buf;
-        for (Py_ssize_t i = 0; i < k && !bad; i++) {
-            int64_t kind = d[7 * i];
-            for (int j = 1; j <= (kind == 2 ? 4 : 3) && !bad; j++) {
-                /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
-                int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
-                if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
-                    bad = "a point definition names something that does not exist";
-            }
-            if (!bad && (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0
-                         || d[7 * i + 6] > 2))
-                bad = "a point definition is not one the arrangement makes";
-        }
-        if (!bad)
-            refine_points(vb.buf, fb.buf, db.buf, k, qb.buf, eb.buf, threads);
-        Py_END_ALLOW_THREADS
-    }
-    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
-    PyBuffer_Release(&eb);
-    if (bad) {
-        PyErr_SetString(PyExc_ValueError, bad);
-        return NULL;
-    }
-    Py_RETURN_NONE;
-}
-
 static PyObject *py_swept(PyObject *self, PyObject *args)
 {
     PyObject *vo, *qo, *ro, *reo, *fo;
@@ -617,61 +567,57 @@ static PyObject *py_patch_faces(PyObject *self, PyObject *args)
     return out;
 }
 
-static PyObject *py_used_corners(PyObject *self, PyObject *args)
+/* Point definitions (7 int64 each, as arrange gives them) that name only what exists; NULL or a message. */
+static const char *bad_definitions(const int64_t *d, Py_ssize_t k, Py_ssize_t n, Py_ssize_t m)
 {
-    PyObject *to;
-    long long n, q;
-    Py_buffer tb;
-    if (!PyArg_ParseTuple(args, "OLL", &to, &n, &q) || get_buffer(to, &tb, 24, 0, "triangles") < 0)
-        return NULL;
-    PyObject *out = q >= 0 ? PyBytes_FromStringAndSize(NULL, 8 * q) : NULL;
-    int64_t u = out ? used_corners(tb.buf, tb.len / 24, n, q, (int64_t *)PyBytes_AS_STRING(out)) : 0;
-    PyBuffer_Release(&tb);
-    if (u < 0) {
-        Py_XDECREF(out);
-        return PyErr_NoMemory();
+    for (Py_ssize_t i = 0; i < k; i++) {
+        int64_t kind = d[7 * i];
+        if (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0 || d[7 * i + 6] > 2)
+            return "a point definition is not one the arrangement makes";
+        for (int j = 1; j <= (kind == 2 ? 4 : 3); j++) {
+            /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
+            int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
+            if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
+                return "a point definition names something that does not exist";
+        }
     }
-    if (out && u < q)
-        _PyBytes_Resize(&out, 8 * u);
-    else if (!out && q < 0)
-        PyErr_SetString(PyExc_ValueError, "no new corners below none");
-    return out;
+    return NULL;
 }
 
-static PyObject *py_distinct_corners(PyObject *self, PyObject *args)
+static PyObject *py_kept_corners(PyObject *self, PyObject *args)
 {
-    PyObject *o[3];
-    Py_buffer b[3];
-    long long n, q;
-    if (!PyArg_ParseTuple(args, "OOLLO", o, o + 1, &q, &n, o + 2)
-        || get_many(o, b, (Py_ssize_t[]){48, 8, 24}, (int[]){0, 0, 1}, 3) < 0)
+    PyObject *o[8];
+    Py_buffer b[8];
+    int threads;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOi", o, o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, &threads)
+        || get_many(o, b, (Py_ssize_t[]){24, 24, 24, 24, 24, 56, 24, 24}, (int[]){0, 0, 1, 0, 0, 0, 0, 0}, 8) < 0)
         return NULL;
-    Py_ssize_t u = b[0].len / 48, k = b[2].len / 24;
-    const int64_t *used = b[1].buf, *T = b[2].buf;
-    const char *bad = b[1].len / 8 != u ? "one row per corner used" : NULL;
-    for (Py_ssize_t i = 0; i < u && !bad; i++)
-        if (used[i] < 0 || used[i] >= q)
-            bad = "a corner used does not exist";
-    /* every new corner the triangles name must be one of those used (they were found from them) */
-    uint8_t *listed = bad ? NULL : calloc(q > 0 ? q : 1, 1);
-    if (!bad && !listed)
-        bad = "out of memory";
-    for (Py_ssize_t i = 0; i < u && listed; i++)
-        listed[used[i]] = 1;
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    Py_ssize_t n = b[0].len / 24, m = b[1].len / 24, k = b[2].len / 24, qc = b[3].len / 24, qe = b[6].len / 24;
+    const int64_t *T = b[2].buf;
+    const char *bad = b[4].len != b[3].len || b[5].len / 56 != qc ? "one rounding and one definition per point"
+                      : b[7].len != b[6].len ? "one rounding per exact point" : NULL;
+    if (!bad)
+        bad = bad_faces(b[1].buf, m, n);
+    if (!bad)
+        bad = bad_definitions(b[5].buf, qc, n, m);
     for (Py_ssize_t i = 0; i < 3 * k && !bad; i++)
-        if (T[i] >= n && (T[i] - n >= q || !listed[T[i] - n]))
-            bad = "a triangle names a new corner not listed as used";
-    free(listed);
-    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 48 * u);
+        if (T[i] < 0 || T[i] >= n + qc + qe)
+            bad = "a triangle names a corner that does not exist";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 48 * (qc + qe));
     if (out) {
-        int64_t r = distinct_corners(b[0].buf, u, used, q, n, b[2].buf, k, (double *)PyBytes_AS_STRING(out));
+        int64_t r;
+        Py_BEGIN_ALLOW_THREADS
+        r = kept_corners(b[0].buf, b[1].buf, n, b[2].buf, k, b[3].buf, b[4].buf, b[5].buf, qc, b[6].buf, b[7].buf,
+                         qe, threads, (double *)PyBytes_AS_STRING(out));
+        Py_END_ALLOW_THREADS
         if (r < 0) {
             Py_CLEAR(out);
             PyErr_NoMemory();
-        } else if (r < u)
+        } else if (r < qc + qe)
             _PyBytes_Resize(&out, 48 * r);
     }
-    release_many(b, 3);
+    release_many(b, 8);
     if (bad)
         PyErr_SetString(PyExc_ValueError, bad);
     return out;
@@ -700,9 +646,6 @@ static PyMethodDef methods[] = {
     {"patches", py_patches, METH_VARARGS,
      "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
      "each way share a label (arrange.c)"},
-    {"refine", py_refine, METH_VARARGS,
-     "refine(vertices, faces, definitions (k, 7), points (k, 3), errors (k, 3), threads): the points rounded\n"
-     "again from their exact values where that certifies a smaller error (in place) (arrange.c)"},
     {"swept", py_swept, METH_VARARGS,
      "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
      "-> (vertices and new points in mesh units (bytes), terms per face around a moved corner (bytes), terms\n"
@@ -712,11 +655,11 @@ static PyMethodDef methods[] = {
     {"patch_faces", py_patch_faces, METH_VARARGS,
      "patch_faces(faces, patch, side int8 per patch) -> int64 faces (bytes): side > 0 as they are, then side < 0\n"
      "reversed (assemble.c)"},
-    {"used_corners", py_used_corners, METH_VARARGS,
-     "used_corners(triangles, n, q) -> int64 (bytes): the new corners n + j (j < q) used, ascending (assemble.c)"},
-    {"distinct_corners", py_distinct_corners, METH_VARARGS,
-     "distinct_corners(table (u, 6), used, q, n, triangles (writable)) -> float64 rows (bytes): the distinct rows\n"
-     "in lexicographic order; the triangles' new corners renumbered to n + their row (assemble.c)"},
+    {"kept_corners", py_kept_corners, METH_VARARGS,
+     "kept_corners(vertices, faces, triangles (writable), points, rounding, definitions (q, 7), exact points,\n"
+     "their rounding, threads) -> float64 rows (r, 6) (bytes): the new corners the triangles use, the compiled\n"
+     "cut's rounded again from their exact values where their bound exceeds an ulp, distinct in lexicographic\n"
+     "order; the triangles' new corners renumbered to n + their row (assemble.c)"},
     {NULL, NULL, 0, NULL},
 };
 
