@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.intersect import _PARALLEL_ABOVE, _extension
-from ..core.threads import threads_for
+from ..core.threads import thread_count
 from ..model.errors import MassPropsError
 
 __all__ = ["Arrangement", "ArrangementError", "arrange"]
@@ -594,7 +594,9 @@ class _Compiled:
     def __init__(self, geometry, faces, pairs):
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-        self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        # (the threads the core may use, asked once: each stage takes them above its size)
+        self.available = thread_count()
+        self.threads = self.available if faces.shape[0] > _PARALLEL_ABOVE else 1
         kind, status, drop, face, count, corners, inner, points, rounding, definitions = _extension().arrange(
             geometry.vertices, faces, pairs, self.threads)
         self.definitions = np.frombuffer(definitions, dtype=np.int64).reshape(-1, 7)
@@ -602,7 +604,8 @@ class _Compiled:
         self.status = np.frombuffer(status, dtype=np.int8)
         self.drop = np.frombuffer(drop, dtype=np.int8)
         self.face = np.frombuffer(face, dtype=np.int64)
-        self.starts = np.concatenate([[0], np.cumsum(np.frombuffer(count, dtype=np.int64))])
+        self.starts = np.zeros(self.face.shape[0] + 1, dtype=np.int64)
+        np.cumsum(np.frombuffer(count, dtype=np.int64), out=self.starts[1:])
         self.corners = np.frombuffer(corners, dtype=np.int64)
         self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
         self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
@@ -656,7 +659,7 @@ class _Compiled:
             flat = starts[:0]
         front, net, owned, status = _extension().labels(
             soup.scaled, soup.faces, np.ascontiguousarray(soup.weights, dtype=np.int64), faces, points, starts,
-            flat, threads_for(k * 64, _PARALLEL_ABOVE))
+            flat, self.available if k * 64 > _PARALLEL_ABOVE else 1)
         answered = np.frombuffer(status, dtype=np.int8) == 0
         # query q is piece q for the compiled cells, piece first_patch + (q - cells) for the patches
         chosen = np.arange(k)

@@ -88,7 +88,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     # A shell of faces that share vertices is one body only when its faces turn once around each vertex;
     # bodies that touch at a vertex or an edge (perhaps one wound inward) are told apart by the arrangement.
     if pairs.size or repeated or pinched != 0:
-        return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
+        return _arranged(mesh, labels, n_shells, geometry, pairs, weights if repeated else None, path)
     if n_shells == 1:
         return Solid(mesh, {"self_intersection": "none"}, swept_volume=_snapped(geometry, vertices, faces),
                      frame=geometry.frame, scaled=geometry.unsnapped)
@@ -161,12 +161,12 @@ def _decide(units, classes):
 
 
 def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
-    """The solid of a soup whose faces meet or repeat, through the exact arrangement."""
+    """The solid of a soup whose faces meet or repeat, through the exact arrangement (``weights`` None: each
+    face counts once)."""
     arrange = _arrangement().arrange
     vertices, faces = mesh.vertices, mesh.faces
-    m = faces.shape[0]
-    weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
-    repeats = bool(np.any(weights != 1))
+    repeats = weights is not None
+    weights = np.asarray(weights, dtype=np.int64) if repeats else np.ones(faces.shape[0], dtype=np.int64)
     if repeats:
         six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
                                        n_shells, geometry.frame)
@@ -191,12 +191,13 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
             raise MeshGeometryError("the solid has zero volume: the faces enclose nothing (every region they wind "
                                     "around cancels)", path=path,
                                     fix="check the export; a surface needs {shell=THICKNESS}")
-    within = labels[pairs[:, 0]] == labels[pairs[:, 1]]
+    # (one shell: every pair is within it)
+    within = labels[pairs[:, 0]] == labels[pairs[:, 1]] if n_shells > 1 else None
     resolved = []
-    crossing = int(within.sum())
+    crossing = pairs.shape[0] if within is None else int(within.sum())
     if crossing:
         resolved.append(f"the surface crosses itself ({crossing} pair{'s' if crossing != 1 else ''} of faces)")
-    if not within.all():
+    if within is not None and not within.all():
         met = np.unique(labels[pairs[~within]])
         inward = int(np.count_nonzero(six[met] < 0))
         if inward:
@@ -206,7 +207,8 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     if repeats:
         resolved.append("faces repeat")
     warnings = []
-    flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound), ~area)
+    unsure = np.flatnonzero(np.abs(six) <= bound)
+    flat = _flat_shells(geometry, faces, labels, unsure, ~area) if unsure.size else 0
     if flat:
         warnings.append(f"{flat} shell{'s' if flat > 1 else ''} enclose{'s' if flat == 1 else ''} zero volume "
                         "(flat, or folded onto itself): the region each encloses is empty or cancels")
