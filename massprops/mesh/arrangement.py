@@ -766,9 +766,11 @@ class _Pieces:
 
 
 def _patches(faces, cut):
-    """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
+    """Groups of uncut faces joined across edges that exactly two faces use, once each way: a label per face
+    (the group's lowest face; a cut face is labelled by itself), and the groups' labels (ascending)."""
     faces = np.ascontiguousarray(faces, dtype=np.int64)
-    return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
+    labels, roots = _extension().patches(faces, np.ascontiguousarray(cut, dtype=bool).view(np.uint8))
+    return np.frombuffer(labels, dtype=np.int64), np.frombuffer(roots, dtype=np.int64)
 
 
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
@@ -835,13 +837,10 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
         cells, (i, j) = _cells(corners, its_segments, normal)
         pieces.extend((t, cell, normal, partners.get(t, ()), i, j) for cell in cells)
     n_cells = len(pieces)
-    uncut = np.flatnonzero(~cut)
-    if uncut.size:
-        patch = _patches(faces, cut)
-        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
-        # labelled by its lowest face (uncut; a cut face is labelled by itself)
-        roots = uncut[patch[uncut] == uncut]
-        pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
+    # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
+    # labelled by its lowest face
+    patch, roots = _patches(faces, cut)
+    pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
     labels = _label_cells(soup, pieces, compiled, n_cells)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
     negative = bool(np.any(front < 0) or np.any(behind < 0))
@@ -858,7 +857,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     if fanned.size:
         triangles.append(compiled.fans(fanned, outward[fanned]))
     out = np.zeros((0, 3), dtype=np.int64)
-    if uncut.size:
+    if roots.size:
         # each face takes its patch's side: +1 kept as it is, -1 turned (after those kept), 0 (and every cut
         # face) left out
         side = np.zeros(m, dtype=np.int8)

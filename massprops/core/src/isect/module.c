@@ -431,16 +431,32 @@ static PyObject *py_patches(PyObject *self, PyObject *args)
             code = patch_labels(F, m, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
         Py_END_ALLOW_THREADS
     }
+    /* the patches' roots: the uncut faces labelled by themselves (each patch's lowest face), ascending */
+    PyObject *roots = NULL;
+    if (out && !bad && code == 0) {
+        const int64_t *label = (const int64_t *)PyBytes_AS_STRING(out);
+        const uint8_t *cut = cb.buf;
+        Py_ssize_t k = 0;
+        for (Py_ssize_t t = 0; t < m; t++)
+            k += !cut[t] && label[t] == t;
+        roots = PyBytes_FromStringAndSize(NULL, 8 * k);
+        if (roots) {
+            int64_t *root = (int64_t *)PyBytes_AS_STRING(roots);
+            for (Py_ssize_t t = 0; t < m; t++)
+                if (!cut[t] && label[t] == t)
+                    *root++ = t;
+        }
+    }
     PyBuffer_Release(&fb), PyBuffer_Release(&cb);
-    if (bad || code < 0) {
+    if (bad || code < 0 || !roots) {
         Py_XDECREF(out);
         if (bad)
             PyErr_SetString(PyExc_ValueError, bad);
-        else
+        else if (code < 0)
             PyErr_NoMemory();
         return NULL;
     }
-    return out;
+    return Py_BuildValue("NN", out, roots);
 }
 
 static PyObject *py_swept(PyObject *self, PyObject *args)
@@ -644,8 +660,8 @@ static PyMethodDef methods[] = {
      "partners, threads) -> (winding numbers int64, net weights int64, owned int8, status int8: 0 answered,\n"
      "1 handed back, 2 no certified point) (bytes) (arrange.c)"},
     {"patches", py_patches, METH_VARARGS,
-     "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
-     "each way share a label (arrange.c)"},
+     "patches(faces, cut uint8) -> (int64 labels, int64 roots) (bytes): uncut faces joined across edges two faces\n"
+     "use once each way share a label, their lowest face (a root) (arrange.c)"},
     {"swept", py_swept, METH_VARARGS,
      "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
      "-> (vertices and new points in mesh units (bytes), terms per face around a moved corner (bytes), terms\n"
