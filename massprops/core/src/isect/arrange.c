@@ -1969,19 +1969,20 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
     begin[0] = 0;
     for (int64_t t = 0; t < m; t++)
         label[t] = t;
-    for (int64_t t = 0; t < m; t++) {
-        if (cut[t])
-            continue;
-        for (int k = 0; k < 3; k++) {
-            int64_t a = F[3 * t + k], b = F[3 * t + (k + 1) % 3];
-            if (a > b)
-                continue;        /* the face across, if it pairs with this one, runs b -> a: seen from there */
+    /* vertex by vertex (its corners are together in memory), each edge a -> b of an uncut face leaving a with
+     * a < b: the face across, if it pairs with this one, runs b -> a, seen from there.  Each patch's label
+     * is its lowest face whatever the order of the unions. */
+    for (int64_t a = 0; a < n; a++) {
+        const Corner *first = around + begin[a], *end = around + begin[a + 1];
+        for (const Corner *x = first; x < end; x++) {
+            int64_t b = x->next, t = x->face;
+            if (a > b || cut[t])
+                continue;
             /* the edges a -> b and b -> a of every face: each leaves one of a's corners or enters one */
             int count = 0;
             int64_t other = -1;
             int reverse = 0;
-            for (int64_t e = begin[a]; e < begin[a + 1]; e++) {
-                const Corner *c = around + e;
+            for (const Corner *c = first; c < end; c++) {
                 if (c->next == b) {
                     count++;
                     if (c->face != t)
@@ -1994,9 +1995,9 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
                 }
             }
             if (count == 2 && other >= 0 && reverse && !cut[other]) {
-                int64_t x = root_of(label, t), y = root_of(label, other);
-                if (x != y)
-                    label[x > y ? x : y] = x < y ? x : y;
+                int64_t r = root_of(label, t), y = root_of(label, other);
+                if (r != y)
+                    label[r > y ? r : y] = r < y ? r : y;
             }
         }
     }
