@@ -765,11 +765,12 @@ class _Pieces:
         self.rest.extend(items)
 
 
-def _patches(faces, cut):
+def _patches(faces, cut, n):
     """Groups of uncut faces joined across edges that exactly two faces use, once each way: a label per face
-    (the group's lowest face; a cut face is labelled by itself), and the groups' labels (ascending)."""
+    (the group's lowest face; a cut face is labelled by itself), and the groups' labels (ascending); the
+    faces' vertices are below ``n``."""
     faces = np.ascontiguousarray(faces, dtype=np.int64)
-    labels, roots = _extension().patches(faces, np.ascontiguousarray(cut, dtype=bool).view(np.uint8))
+    labels, roots = _extension().patches(faces, np.ascontiguousarray(cut, dtype=bool).view(np.uint8), n)
     return np.frombuffer(labels, dtype=np.int64), np.frombuffer(roots, dtype=np.int64)
 
 
@@ -839,7 +840,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     n_cells = len(pieces)
     # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
     # labelled by its lowest face
-    patch, roots = _patches(faces, cut)
+    patch, roots = _patches(faces, cut, soup.scaled.shape[0])
     pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
     labels = _label_cells(soup, pieces, compiled, n_cells)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)

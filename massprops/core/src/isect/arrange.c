@@ -1943,13 +1943,10 @@ typedef struct {
     uint32_t face;
 } Corner;
 
-int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label)
+int patch_labels(const int64_t *F, int64_t m, int64_t n, const uint8_t *cut, int64_t *label)
 {
     if (m >= ((int64_t)1 << 32))
         return -1;
-    int64_t n = 0;
-    for (int64_t i = 0; i < 3 * m; i++)
-        n = F[i] + 1 > n ? F[i] + 1 : n;
     int64_t *begin = calloc(n + 1, sizeof(int64_t));
     Corner *around = malloc(sizeof(Corner) * (3 * m + 1));       /* the corners at each vertex (vertices < 2**31) */
     if (!begin || !around) {

@@ -210,8 +210,8 @@ void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64
                    int threads);
 
 /* Per face, a label shared by the uncut faces joined across edges that exactly two faces use, once
- * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
-int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
+ * each way (faces are below 2**32; their vertices below n, below 2**31).  0, or -1 when memory ran out. */
+int patch_labels(const int64_t *F, int64_t m, int64_t n, const uint8_t *cut, int64_t *label);
 
 /* The kept pieces put together (assemble.c).  fan_cells: cells[i] (its corners corners[starts[c] ..
  * starts[c + 1]]) fanned into fan_count(...) triangles, from its first corner, or from its last one

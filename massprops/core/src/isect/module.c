@@ -408,8 +408,13 @@ static PyObject *py_labels(PyObject *self, PyObject *args)
 static PyObject *py_patches(PyObject *self, PyObject *args)
 {
     PyObject *fo, *co;
-    if (!PyArg_ParseTuple(args, "OO", &fo, &co))
+    long long n;
+    if (!PyArg_ParseTuple(args, "OOL", &fo, &co, &n))
         return NULL;
+    if (n < 0 || n > ((int64_t)1 << 31)) {
+        PyErr_SetString(PyExc_ValueError, "the vertex count is out of range");
+        return NULL;
+    }
     Py_buffer fb, cb;
     if (get_buffer(fo, &fb, 24, 0, "faces") < 0)
         return NULL;
@@ -425,10 +430,10 @@ static PyObject *py_patches(PyObject *self, PyObject *args)
         const int64_t *F = fb.buf;
         Py_BEGIN_ALLOW_THREADS
         for (Py_ssize_t i = 0; i < 3 * m && !bad; i++)
-            if (F[i] < 0 || F[i] >= ((int64_t)1 << 31))
+            if (F[i] < 0 || F[i] >= n)
                 bad = "a face names a vertex out of range";
         if (!bad)
-            code = patch_labels(F, m, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
+            code = patch_labels(F, m, n, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
         Py_END_ALLOW_THREADS
     }
     /* the patches' roots: the uncut faces labelled by themselves (each patch's lowest face), ascending */
@@ -660,7 +665,7 @@ static PyMethodDef methods[] = {
      "partners, threads) -> (winding numbers int64, net weights int64, owned int8, status int8: 0 answered,\n"
      "1 handed back, 2 no certified point) (bytes) (arrange.c)"},
     {"patches", py_patches, METH_VARARGS,
-     "patches(faces, cut uint8) -> (int64 labels, int64 roots) (bytes): uncut faces joined across edges two faces\n"
+     "patches(faces, cut uint8, vertex count) -> (int64 labels, int64 roots) (bytes): uncut faces joined across edges two faces\n"
      "use once each way share a label, their lowest face (a root) (arrange.c)"},
     {"swept", py_swept, METH_VARARGS,
      "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
