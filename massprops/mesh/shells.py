@@ -236,8 +236,9 @@ def _with_pieces(geometry, vertices, arranged):
         return vertices, 0.0
     frame = geometry.frame
     # One compiled pass (isect/swept.c) for the corners in mesh units, each one's move (its rounding plus the
-    # addition's exact error, Knuth's two-sum) and the terms of swept_volume(..., apex=reference); numpy sums
-    # the terms as swept_volume does, so the bound is the same double.
+    # addition's exact error, Knuth's two-sum) and the terms of the swept volume's bound for cut pieces (see
+    # swept_volume: per face around a moved corner, per wall no reversed edge cancels, its cone from the
+    # reference); numpy sums them (swept_sum).
     combined, faces, walls, _ = _extension().swept(
         np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(arranged.points, dtype=np.float64),
         np.ascontiguousarray(arranged.rounding, dtype=np.float64), math.ldexp(1.0, frame.scale_exp),
