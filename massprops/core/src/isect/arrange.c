@@ -1528,15 +1528,36 @@ static int columns_build(Labels *L, int axis)
                 for (int y = y0; y <= y1; y++)
                     c->needed[(int64_t)x * side + y] = 1;
         }
+        /* A bound on the entries of every face's columns (a face spans at most its extent's columns plus two
+         * along each axis): when it stays within 16 per face, no face needs its columns counted, and a face
+         * whose box lies half a column or more outside the columns listed is passed over on its box alone. */
+        double bound = 0.0, edge[4] = {-INFINITY, INFINITY, -INFINITY, INFINITY};
+        for (int64_t t = 0; t < L->m; t++) {
+            double cx = (L->hi[3 * t + a1] - L->lo[3 * t + a1]) * c->inverse[0] * (1 + 1e-12) + 2.000001;
+            double cy = (L->hi[3 * t + a2] - L->lo[3 * t + a2]) * c->inverse[1] * (1 + 1e-12) + 2.000001;
+            bound += (cx < side ? cx : side) * (cy < side ? cy : side);
+        }
+        int counted = !(side > 1 && L->m && bound <= 16.0 * (double)L->m * (1 - 1e-9)) || reach[1] < reach[0];
+        if (!counted) {
+            edge[0] = c->origin[0] + (reach[0] - 0.5) / c->inverse[0];
+            edge[1] = c->origin[0] + (reach[1] + 1.5) / c->inverse[0];
+            edge[2] = c->origin[1] + (reach[2] - 0.5) / c->inverse[1];
+            edge[3] = c->origin[1] + (reach[3] + 1.5) / c->inverse[1];
+        }
         /* one pass: each face's columns, counted, and those listed kept */
         int64_t entries = 0;
         n_listed = 0;
         for (int64_t t = 0; t < L->m; t++) {
+            if (!counted && (L->hi[3 * t + a1] < edge[0] || L->lo[3 * t + a1] > edge[1]
+                             || L->hi[3 * t + a2] < edge[2] || L->lo[3 * t + a2] > edge[3]))
+                continue;                /* surely in no listed column */
             int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
             int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
-            entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
-            if (side > 1 && entries > 16 * L->m)
-                break;                   /* large faces: fewer columns (below), before listing them all */
+            if (counted) {
+                entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
+                if (side > 1 && entries > 16 * L->m)
+                    break;               /* large faces: fewer columns (below), before listing them all */
+            }
             if (x1 < reach[0] || x0 > reach[1] || y1 < reach[2] || y0 > reach[3])
                 continue;                /* in no listed column */
             x0 = x0 > reach[0] ? x0 : reach[0], x1 = x1 < reach[1] ? x1 : reach[1];
