@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.intersect import _PARALLEL_ABOVE, _extension
-from ..core.threads import threads_for
+from ..core.threads import thread_count
 from ..model.errors import MassPropsError
 
 __all__ = ["Arrangement", "ArrangementError", "arrange"]
@@ -585,7 +585,8 @@ class _Compiled:
         these two coordinates, rebuilt exactly by :meth:`inner`.
     points, rounding : ndarray, shape (q, 3), float64
         The new corners rounded once, and a certified bound on each coordinate's rounding (the
-        filter's; :meth:`rounded` finds the exact ones).
+        filter's; the kept ones are rounded again from their exact values where that bound exceeds a unit
+        in the last place, in :func:`arrange`).
     definitions : ndarray, shape (q, 7), int64
         How each new corner is defined (kind, then vertices or faces, then the projection's axes).
     """
@@ -593,7 +594,9 @@ class _Compiled:
     def __init__(self, geometry, faces, pairs):
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-        self.threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
+        # (the threads the core may use, asked once: each stage takes them above its size)
+        self.available = thread_count()
+        self.threads = self.available if faces.shape[0] > _PARALLEL_ABOVE else 1
         kind, status, drop, face, count, corners, inner, points, rounding, definitions = _extension().arrange(
             geometry.vertices, faces, pairs, self.threads)
         self.definitions = np.frombuffer(definitions, dtype=np.int64).reshape(-1, 7)
@@ -601,25 +604,12 @@ class _Compiled:
         self.status = np.frombuffer(status, dtype=np.int8)
         self.drop = np.frombuffer(drop, dtype=np.int8)
         self.face = np.frombuffer(face, dtype=np.int64)
-        self.starts = np.concatenate([[0], np.cumsum(np.frombuffer(count, dtype=np.int64))])
+        self.starts = np.zeros(self.face.shape[0] + 1, dtype=np.int64)
+        np.cumsum(np.frombuffer(count, dtype=np.int64), out=self.starts[1:])
         self.corners = np.frombuffer(corners, dtype=np.int64)
         self.inside = np.frombuffer(inner, dtype=np.float64).reshape(-1, 6, 2)
         self.points = np.frombuffer(points, dtype=np.float64).reshape(-1, 3)
         self.rounding = np.frombuffer(rounding, dtype=np.float64).reshape(-1, 3)
-        self._geometry, self._faces = geometry, faces
-
-    def rounded(self, used):
-        """Points ``used`` (indices) and their rounding bounds: rounded again from the exact value (found with
-        exact expansions) where the filter's bound exceeds a unit in the last place (an exact rounding
-        is within half of one; most intersections of an edge with a plane are already within one)."""
-        points, rounding = self.points[used], self.rounding[used]         # (copies: fancy indexing)
-        loose = np.flatnonzero(np.any(rounding > np.spacing(np.abs(points)), axis=1))
-        if loose.size:
-            again, bounds = points[loose], rounding[loose]
-            _extension().refine(self._geometry.vertices, self._faces,
-                                np.ascontiguousarray(self.definitions[used[loose]]), again, bounds, self.threads)
-            points[loose], rounding[loose] = again, bounds
-        return points, rounding
 
     def inner(self, soup, t, cell, attempt, i, j):
         """Inner point ``attempt`` of cell ``cell`` of face ``t`` (homogeneous integers, w > 0), or None.
@@ -646,47 +636,46 @@ class _Compiled:
         p[drop] = offset * denominator - normal[i] * a - normal[j] * c
         return _reduced(*p, n_drop * denominator)
 
-    def label(self, soup, pieces, first_patch, labels):
-        """Fill ``labels`` where the compiled core settles the count: cells of the compiled cut (with the net
-        weight of the faces in their plane that hold their inner point) and patches."""
-        chosen, faces, cells, partners = [], [], [], []
-        for k in range(first_patch):
-            t, cell, _, its_partners, _, _ = pieces[k]
-            if not isinstance(cell, list):
-                chosen.append(k), faces.append(t), cells.append(cell), partners.append(its_partners)
-        for k in range(first_patch, len(pieces)):
-            chosen.append(k), faces.append(pieces[k][0]), partners.append(())
-        if not chosen:
+    def label(self, soup, pieces, first_patch, labels, done):
+        """Fill ``labels`` (and ``done``) where the compiled core settles the count: cells of the compiled cut
+        (with the net weight of the faces in their plane that hold their inner point) and patches
+        (``pieces``, a :class:`_Pieces`, from ``first_patch`` on)."""
+        cells = self.face.shape[0]
+        roots = [piece[0] for piece in pieces.rest[first_patch - cells:]]
+        k = cells + len(roots)
+        if not k:
             return
-        points = np.full((len(chosen), 2), math.nan)             # NaN: a patch's face, asked at its centroid
-        points[:len(cells)] = self.inside[cells, 0]
-        starts = np.zeros(len(chosen) + 1, dtype=np.int64)
-        starts[1:] = np.cumsum([len(p) for p in partners])
-        flat = np.fromiter((u for p in partners for u in p), dtype=np.int64, count=int(starts[-1]))
+        faces = np.concatenate([self.face, np.array(roots, dtype=np.int64)]) if roots else self.face
+        points = np.full((k, 2), math.nan)             # NaN: a patch's face, asked at its centroid
+        points[:cells] = self.inside[:, 0]
+        starts = np.zeros(k + 1, dtype=np.int64)
+        partners = pieces.partners
+        if partners:
+            mine = [partners.get(t, ()) for t in self.face.tolist()]
+            starts[1:cells + 1] = np.cumsum([len(p) for p in mine])
+            starts[cells + 1:] = starts[cells]
+            flat = np.fromiter((u for p in mine for u in p), dtype=np.int64, count=int(starts[-1]))
+        else:
+            flat = starts[:0]
         front, net, owned, status = _extension().labels(
-            soup.scaled, np.ascontiguousarray(soup.faces, dtype=np.int64),
-            np.ascontiguousarray(soup.weights, dtype=np.int64), np.array(faces, dtype=np.int64), points, starts, flat,
-            threads_for(len(chosen) * 64, _PARALLEL_ABOVE))
-        answered = np.flatnonzero(np.frombuffer(status, dtype=np.int8) == 0)
-        fronts = np.frombuffer(front, dtype=np.int64)[answered].tolist()
-        nets = np.frombuffer(net, dtype=np.int64)[answered].tolist()
-        owns = np.frombuffer(owned, dtype=np.int8)[answered].tolist()
-        for q, w, n, o in zip(answered.tolist(), fronts, nets, owns):
-            labels[chosen[q]] = (w, n, bool(o))
+            soup.scaled, soup.faces, np.ascontiguousarray(soup.weights, dtype=np.int64), faces, points, starts,
+            flat, self.available if k * 64 > _PARALLEL_ABOVE else 1)
+        answered = np.frombuffer(status, dtype=np.int8) == 0
+        # query q is piece q for the compiled cells, piece first_patch + (q - cells) for the patches
+        chosen = np.arange(k)
+        chosen[cells:] += first_patch - cells
+        chosen = chosen[answered]
+        labels[chosen, 0] = np.frombuffer(front, dtype=np.int64)[answered]
+        labels[chosen, 1] = np.frombuffer(net, dtype=np.int64)[answered]
+        labels[chosen, 2] = np.frombuffer(owned, dtype=np.int8)[answered] != 0
+        done[chosen] = True
 
     def fans(self, cells, outward):
-        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward``."""
-        start, count = self.starts[cells], self.starts[cells + 1] - self.starts[cells]
-        fan = count - 2                                   # triangles per cell
-        owner = np.repeat(np.arange(cells.size), fan)
-        step = np.arange(owner.size) - np.repeat(np.cumsum(fan) - fan, fan) + 1   # 1 .. count - 2
-        first = start[owner]
-        triangles = np.stack([first, first + step, first + step + 1], axis=1)
-        # a cell turned inward is fanned from its last corner, as the exact path's reversed polygon
-        flip = ~outward[owner]
-        last = (start + count - 1)[owner][flip]
-        triangles[flip] = np.stack([last, last - step[flip], last - step[flip] - 1], axis=1)
-        return self.corners[triangles]
+        """Triangles (k, 3) fanning the cells chosen (ascending), reversed where not ``outward`` (a cell turned
+        inward is fanned from its last corner, as the exact path's reversed polygon)."""
+        triangles = _extension().fans(self.starts, self.corners, np.ascontiguousarray(cells, dtype=np.int64),
+                                      np.ascontiguousarray(outward, dtype=bool).view(np.uint8))
+        return np.frombuffer(triangles, dtype=np.int64).reshape(-1, 3)
 
 
 # -- the arrangement -----------------------------------------------------------------------------
@@ -702,7 +691,7 @@ _TRIES = ((1, 1, 1), (1, 2, 3), (3, 1, 2), (2, 3, 1), (1, 3, 7), (5, 1, 2))
 
 
 def _label_cells(soup, pieces, compiled=None, first_patch=None):
-    """``(w in front, net weight on the piece, owned)`` for each piece ``(t, cell, normal, partners, i, j)``.
+    """``(w in front, net weight on the piece, owned)`` (k, 3) for each piece ``(t, cell, normal, partners, i, j)``.
 
     ``cell`` is a list of homogeneous corners (its inner points are weighted
     means of three of them), or the number of a cell of ``compiled`` (a
@@ -713,10 +702,11 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
     (:meth:`_Soup.windings`); a piece whose inner point lies on another face
     is asked again at another inner point.
     """
-    labels = [None] * len(pieces)
+    labels = np.zeros((len(pieces), 3), dtype=np.int64)
+    done = np.zeros(len(pieces), dtype=bool)
     if compiled is not None:
-        compiled.label(soup, pieces, first_patch, labels)
-    pending = [k for k, label in enumerate(labels) if label is None]
+        compiled.label(soup, pieces, first_patch, labels, done)
+    pending = np.flatnonzero(~done).tolist()
     for attempt, weights in enumerate(_TRIES):
         if not pending:
             break
@@ -743,31 +733,45 @@ def _label_cells(soup, pieces, compiled=None, first_patch=None):
         for k, front, (net, owned) in zip(asked, fronts, nets):
             if front is not None:
                 labels[k] = (front, net, owned)
-        pending = [k for k in pending if labels[k] is None]
+                done[k] = True
+        pending = [k for k in pending if not done[k]]
     if pending:
         raise ArrangementError(f"{len(pending)} pieces of crossing faces lie on other faces at every point tried",
                                fix="report this mesh: the arrangement could not label it")
     return labels
 
 
-def _patches(faces, cut):
-    """Groups of uncut faces joined across edges that exactly two faces use, once each way (a label per face)."""
+class _Pieces:
+    """The pieces to label, in order: the compiled cut's cells (piece k is cell k; as a tuple
+    ``(t, cell, normal, partners, i, j)`` only when the exact path asks for it, normal None: the exact
+    normal is made then), then the exact path's cells and the patches' faces (``rest``)."""
+
+    def __init__(self, compiled, partners):
+        self.compiled, self.partners = compiled, partners
+        self.cells = 0 if compiled is None else compiled.face.shape[0]
+        self.rest = []
+
+    def __len__(self):
+        return self.cells + len(self.rest)
+
+    def __getitem__(self, k):
+        if k >= self.cells:
+            return self.rest[k - self.cells]
+        t = int(self.compiled.face[k])
+        drop = int(self.compiled.drop[t])
+        return (t, k, None, self.partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
+
+    def extend(self, items):
+        self.rest.extend(items)
+
+
+def _patches(faces, cut, n):
+    """Groups of uncut faces joined across edges that exactly two faces use, once each way: a label per face
+    (the group's lowest face; a cut face is labelled by itself), and the groups' labels (ascending); the
+    faces' vertices are below ``n``."""
     faces = np.ascontiguousarray(faces, dtype=np.int64)
-    return np.frombuffer(_extension().patches(faces, np.ascontiguousarray(cut, dtype=np.uint8)), dtype=np.int64)
-
-
-def _distinct_rows(table):
-    """The distinct rows of a float table in lexicographic order, and each row's place among them (as
-    ``np.unique(table, axis=0, return_inverse=True)``, which sorts a structured copy: several times slower)."""
-    if table.shape[0] == 0:
-        return table, np.zeros(0, dtype=np.int64)
-    order = np.lexsort(table.T[::-1])
-    ordered = table[order]
-    first = np.ones(order.size, dtype=bool)
-    np.logical_or.reduce(ordered[1:] != ordered[:-1], axis=1, out=first[1:])
-    index = np.empty(order.size, dtype=np.int64)
-    index[order] = np.cumsum(first) - 1
-    return ordered[first], index
+    labels, roots = _extension().patches(faces, np.ascontiguousarray(cut, dtype=bool).view(np.uint8), n)
+    return np.frombuffer(labels, dtype=np.int64), np.frombuffer(roots, dtype=np.int64)
 
 
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
@@ -792,6 +796,7 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     -------
     Arrangement
     """
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
     soup = _Soup(geometry, faces, weights)
     m = faces.shape[0]
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
@@ -827,24 +832,17 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
                     segments.setdefault(x, []).append(segment)
     cut = np.zeros(m, dtype=bool) if compiled is None else compiled.status == 1
     cut[list(segments)] = True
-    pieces = []
-    if compiled is not None:
-        # (normal None: the exact normal is made only if the exact path asks for it)
-        pieces = [(t, c, None, partners.get(t, ()), (drop + 1) % 3, (drop + 2) % 3)
-                  for c, (t, drop) in enumerate(zip(compiled.face.tolist(), compiled.drop[compiled.face].tolist()))]
+    pieces = _Pieces(compiled, partners)
     for t, its_segments in segments.items():
         corners, normal, _ = soup.plane(t)
         cells, (i, j) = _cells(corners, its_segments, normal)
         pieces.extend((t, cell, normal, partners.get(t, ()), i, j) for cell in cells)
     n_cells = len(pieces)
-    uncut = np.flatnonzero(~cut)
-    if uncut.size:
-        patch = _patches(faces, cut)
-        # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
-        # labelled by its lowest face (uncut; a cut face is labelled by itself)
-        roots = uncut[patch[uncut] == uncut]
-        pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
-    labels = np.array(_label_cells(soup, pieces, compiled, n_cells), dtype=np.int64).reshape(-1, 3)
+    # one piece per patch: a whole face (cell None: its corners), asked at its centroid first; a patch is
+    # labelled by its lowest face
+    patch, roots = _patches(faces, cut, soup.scaled.shape[0])
+    pieces.extend((t, None, None, (), 0, 1) for t in roots.tolist())
+    labels = _label_cells(soup, pieces, compiled, n_cells)
     front, behind, owned = labels[:, 0], labels[:, 0] + labels[:, 1], labels[:, 2].astype(bool)
     negative = bool(np.any(front < 0) or np.any(behind < 0))
     bounding = (front > 0) != (behind > 0)
@@ -860,32 +858,26 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     if fanned.size:
         triangles.append(compiled.fans(fanned, outward[fanned]))
     out = np.zeros((0, 3), dtype=np.int64)
-    if uncut.size:
-        # each face takes its patch's side: +1 kept as it is, -1 turned, 0 (and every cut face) left out
+    if roots.size:
+        # each face takes its patch's side: +1 kept as it is, -1 turned (after those kept), 0 (and every cut
+        # face) left out
         side = np.zeros(m, dtype=np.int8)
         side[roots] = np.where(bounding[n_cells:], np.where(behind[n_cells:] > 0, 1, -1), 0)
-        signs = side[patch]
-        out = np.compress(signs > 0, faces, axis=0).astype(np.int64, copy=False)   # (compress: ~4x a boolean index)
-        turned = np.compress(signs < 0, faces, axis=0)
-        if turned.size:
-            out = np.concatenate([out, turned[:, ::-1]]).astype(np.int64, copy=False)
-    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0]
+        out = np.frombuffer(_extension().patch_faces(faces, patch, side), dtype=np.int64).reshape(-1, 3)
+    # (a copy where the fans alone are the pieces: their new corners are renumbered in place below)
+    pieces = np.vstack(triangles) if len(triangles) > 1 else triangles[0].copy()
     points, rounding = kept_corners.points()
-    n = soup.scaled.shape[0]
-    new = pieces >= n
-    used = np.unique(pieces[new]) - n
-    # the new corners the kept pieces use (ascending: the compiled core's first, numbered ahead of the exact
-    # path's), each with its rounding bound
-    table = np.empty((used.size, 6))
-    before = 0 if compiled is None else compiled.points.shape[0]
-    mine = used[:np.searchsorted(used, before)]
-    if mine.size:
-        # the compiled corners the kept pieces use, rounded from their exact values
-        table[:mine.size, :3], table[:mine.size, 3:] = compiled.rounded(mine)
-    table[mine.size:, :3], table[mine.size:, 3:] = points[used[mine.size:] - before], rounding[used[mine.size:] - before]
-    # one for points that round alike with the same bound
-    rows, index = _distinct_rows(table)
-    renumber = np.full(before + points.shape[0], -1, dtype=np.int64)
-    renumber[used] = index + n
-    pieces[new] = renumber[pieces[new] - n]
+    # the new corners the kept pieces use (the compiled core's first, numbered ahead of the exact path's), each
+    # with its rounding bound: the compiled core's rounded again from their exact values (with exact
+    # expansions) where the filter's bound exceeds a unit in the last place (an exact rounding is within half
+    # of one; most intersections of an edge with a plane are already within one); one for points that round
+    # alike with the same bound, in lexicographic order (as np.unique(table, axis=0)); the pieces' new corners
+    # renumbered to them
+    if compiled is None:
+        mine = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 7), dtype=np.int64), 1)
+    else:
+        mine = (compiled.points, compiled.rounding, compiled.definitions, compiled.threads)
+    rows = _extension().kept_corners(soup.scaled, faces, pieces, *mine[:3], np.ascontiguousarray(points),
+                                     np.ascontiguousarray(rounding), mine[3])
+    rows = np.frombuffer(rows, dtype=np.float64).reshape(-1, 6)
     return Arrangement(out, pieces, rows[:, :3].copy(), rows[:, 3:].copy(), negative)

@@ -15,11 +15,24 @@ import numpy as np
 
 from ..core import _core
 from ..core.frame import check_box_range
-from ..core.intersect import ExactGeometry
+from ..core import intersect
+from ..core.intersect import ExactGeometry, _extension
 from ..model.errors import MeshGeometryError
-from .solid import Solid, shell_six_volumes, swept_volume
+from .solid import Solid, shell_six_volumes, swept_sum, swept_volume
 
 __all__ = ["solid_of", "resolve_shells", "joined_groups"]
+
+
+_LOADED = []
+
+
+def _arrangement():
+    """:mod:`massprops.mesh.arrangement`, imported when first needed (an import statement inside the
+    function costs ~10 us a call; importing it here would slow every start)."""
+    if not _LOADED:
+        from . import arrangement
+        _LOADED.append(arrangement)
+    return _LOADED[0]
 
 
 def _geometry(vertices):
@@ -75,7 +88,7 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     # A shell of faces that share vertices is one body only when its faces turn once around each vertex;
     # bodies that touch at a vertex or an edge (perhaps one wound inward) are told apart by the arrangement.
     if pairs.size or repeated or pinched != 0:
-        return _arranged(mesh, labels, n_shells, geometry, pairs, weights, path)
+        return _arranged(mesh, labels, n_shells, geometry, pairs, weights if repeated else None, path)
     if n_shells == 1:
         return Solid(mesh, {"self_intersection": "none"}, swept_volume=_snapped(geometry, vertices, faces),
                      frame=geometry.frame, scaled=geometry.unsnapped)
@@ -148,12 +161,12 @@ def _decide(units, classes):
 
 
 def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
-    """The solid of a soup whose faces meet or repeat, through the exact arrangement."""
-    from .arrangement import arrange
+    """The solid of a soup whose faces meet or repeat, through the exact arrangement (``weights`` None: each
+    face counts once)."""
+    arrange = _arrangement().arrange
     vertices, faces = mesh.vertices, mesh.faces
-    m = faces.shape[0]
-    weights = np.ones(m, dtype=np.int64) if weights is None else np.asarray(weights, dtype=np.int64)
-    repeats = bool(np.any(weights != 1))
+    repeats = weights is not None
+    weights = np.asarray(weights, dtype=np.int64) if repeats else np.ones(faces.shape[0], dtype=np.int64)
     if repeats:
         six, bound = shell_six_volumes(vertices, np.repeat(faces, weights, axis=0), np.repeat(labels, weights),
                                        n_shells, geometry.frame)
@@ -178,12 +191,13 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
             raise MeshGeometryError("the solid has zero volume: the faces enclose nothing (every region they wind "
                                     "around cancels)", path=path,
                                     fix="check the export; a surface needs {shell=THICKNESS}")
-    within = labels[pairs[:, 0]] == labels[pairs[:, 1]]
+    # (one shell: every pair is within it)
+    within = labels[pairs[:, 0]] == labels[pairs[:, 1]] if n_shells > 1 else None
     resolved = []
-    crossing = int(within.sum())
+    crossing = pairs.shape[0] if within is None else int(within.sum())
     if crossing:
         resolved.append(f"the surface crosses itself ({crossing} pair{'s' if crossing != 1 else ''} of faces)")
-    if not within.all():
+    if within is not None and not within.all():
         met = np.unique(labels[pairs[~within]])
         inward = int(np.count_nonzero(six[met] < 0))
         if inward:
@@ -193,7 +207,8 @@ def _arranged(mesh, labels, n_shells, geometry, pairs, weights, path):
     if repeats:
         resolved.append("faces repeat")
     warnings = []
-    flat = _flat_shells(geometry, faces, labels, np.flatnonzero(np.abs(six) <= bound), ~area)
+    unsure = np.flatnonzero(np.abs(six) <= bound)
+    flat = _flat_shells(geometry, faces, labels, unsure, ~area) if unsure.size else 0
     if flat:
         warnings.append(f"{flat} shell{'s' if flat > 1 else ''} enclose{'s' if flat == 1 else ''} zero volume "
                         "(flat, or folded onto itself): the region each encloses is empty or cancels")
@@ -220,22 +235,20 @@ def _with_pieces(geometry, vertices, arranged):
     if arranged.points.shape[0] == 0:
         return vertices, 0.0
     frame = geometry.frame
-    power = math.ldexp(1.0, frame.scale_exp)
-    offset = arranged.points * power
-    reference = np.asarray(frame.reference, dtype=np.float64)
-    points = reference + offset
-    back = points - reference
-    added = np.abs((reference - (points - back)) + (offset - back))      # two-sum: the addition's exact error
-    moved = np.linalg.norm(arranged.rounding * power + added, axis=1) * (1 + 1e-9)
-    combined = np.vstack([vertices, points])
-    n = vertices.shape[0]
-    swept = swept_volume(combined, arranged.pieces, np.arange(n, n + points.shape[0]), moved, apex=reference)
-    return combined, swept
+    # One compiled pass (isect/swept.c) for the corners in mesh units, each one's move (its rounding plus the
+    # addition's exact error, Knuth's two-sum) and the terms of the swept volume's bound for cut pieces (see
+    # swept_volume: per face around a moved corner, per wall no reversed edge cancels, its cone from the
+    # reference); numpy sums them (swept_sum).
+    combined, faces, walls, _ = _extension().swept(
+        np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(arranged.points, dtype=np.float64),
+        np.ascontiguousarray(arranged.rounding, dtype=np.float64), math.ldexp(1.0, frame.scale_exp),
+        np.ascontiguousarray(frame.reference, dtype=np.float64), np.ascontiguousarray(arranged.pieces, dtype=np.int64))
+    combined = np.frombuffer(combined, dtype=np.float64).reshape(-1, 3)
+    return combined, swept_sum(np.frombuffer(faces, dtype=np.float64), np.frombuffer(walls, dtype=np.float64))
 
 
 def _flat_shells(geometry, faces, labels, shells, zero_area):
     """How many of ``shells`` lie in one plane (exactly); ``zero_area`` flags the faces of zero area."""
-    from ..core.intersect import orient3d_signs
     flat = 0
     for shell in shells.tolist():
         mine = labels == shell
@@ -247,7 +260,7 @@ def _flat_shells(geometry, faces, labels, shells, zero_area):
         a, b, c = geometry.vertices[faces[usable[0]]]
         points = np.stack([np.broadcast_to(a, (corners.size, 3)), np.broadcast_to(b, (corners.size, 3)),
                            np.broadcast_to(c, (corners.size, 3)), geometry.vertices[corners]], axis=1)
-        flat += int(not np.any(orient3d_signs(points)))
+        flat += int(not np.any(intersect.orient3d_signs(points)))
     return flat
 
 

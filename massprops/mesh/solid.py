@@ -41,7 +41,7 @@ from ..core.arrays import as_indices
 from ..core import shells as count_shells
 
 __all__ = ["Solid", "without_unused_vertices", "without_repeated_faces",
-           "shell_six_volumes", "swept_volume", "widened", "overlap_warning"]
+           "shell_six_volumes", "swept_volume", "swept_sum", "widened", "overlap_warning"]
 
 
 @record
@@ -227,7 +227,7 @@ def shell_six_volumes(vertices, faces, labels, n_shells, frame=None):
     return sums * factor, bounds * factor
 
 
-def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
+def swept_volume(points, faces, moved_vertices, moved):
     """A bound on the volume swept when vertices ``moved_vertices`` move by at most ``moved`` each.
 
     Moving vertex v by δ_v sweeps, across each triangle around it, a
@@ -236,13 +236,17 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     δ the largest move, so its enlarged area covers every order.
 
     That holds where the triangles around a moved vertex all move it (a
-    closed surface stays closed).  Where they need not (``apex`` given: cut
-    pieces whose corners lie on other pieces' edges), each triangle's signed
-    tetrahedra from ``apex`` also change by the cones from ``apex`` over the
-    walls its edges sweep: edge (a, b) sweeps a wall of area at most
-    ``(|ab| + δ) (δ_a + δ_b)``, and its cone at most that times the wall's
-    farthest distance from ``apex``, over 3.  Walls of edges used once each
-    way cancel; the others are added.
+    closed surface stays closed).  Where they need not (the arrangement's cut
+    pieces, whose corners may lie on other pieces' edges), each triangle's
+    signed tetrahedra from the frame's reference also change by the cones
+    from there over the walls its edges sweep: edge (a, b) sweeps a wall of
+    area at most ``(|ab| + δ) (δ_a + δ_b)``, and its cone at most that times
+    the wall's farthest distance from the reference, over 3.  Walls of edges
+    used once each way cancel; the others are added.  The compiled core
+    forms both kinds of terms for the cut pieces in one pass
+    (``massprops/core/src/isect/swept.c``, from
+    :func:`massprops.mesh.shells._with_pieces`), with the same operations on
+    the same doubles as here; :func:`swept_sum` adds them.
 
     Parameters
     ----------
@@ -251,9 +255,6 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     faces : ndarray, shape (m, 3), int
     moved_vertices : ndarray of int, moved : ndarray of float
         Which vertices moved, and an upper bound on each one's move.
-    apex : ndarray, shape (3,), optional
-        The point the signed tetrahedra are taken from, when the moved
-        vertices may lie on other triangles' edges without being their corners.
 
     Returns
     -------
@@ -264,8 +265,7 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     delta = np.zeros(points.shape[0])
     delta[moved_vertices] = moved
     around = delta[faces]
-    # (the ufuncs' reductions called directly: the same sums, without numpy's Python-level wrappers, which
-    # cost more than the sums on the few pieces of an arrangement)
+    # (the ufuncs' reductions called directly: the same sums, without numpy's Python-level wrappers)
     touched = np.flatnonzero(np.maximum.reduce(around, axis=1) > 0)
     faces, around = faces[touched], around[touched]
     a, b, c = (points[faces[:, k]] for k in range(3))
@@ -282,39 +282,16 @@ def swept_volume(points, faces, moved_vertices, moved, *, apex=None):
     perimeter = lengths[:k] + lengths[k:2 * k] + lengths[2 * k:3 * k]
     largest = float(moved.max())
     enlarged = (area + largest * perimeter + largest * largest) * (1 + 1e-9)     # no OverflowError: inf
-    total = float(np.add.reduce(np.add.reduce(around, axis=1) * enlarged)) / 3.0
-    if apex is not None:
-        total += _unmatched_walls(points, faces, delta, largest, apex)
+    return swept_sum(np.add.reduce(around, axis=1) * enlarged)
+
+
+def swept_sum(face_terms, wall_terms=None):
+    """:func:`swept_volume` from its terms: three times each face's bound, and, for cut pieces, three times
+    each unmatched wall's cone (mesh units³), each sum widened."""
+    total = float(np.add.reduce(face_terms)) / 3.0
+    if wall_terms is not None:
+        total += float(np.add.reduce(wall_terms)) / 3.0 * (1 + 1e-9)
     return total * (1 + 1e-9)
-
-
-def _unmatched_walls(points, faces, delta, largest, apex):
-    """Cones from ``apex`` over the walls of moved edges that no reversed edge cancels (see swept_volume).
-
-    An edge used once each way by two triangles sweeps one wall twice, with
-    opposite signs: its cones cancel exactly.  Only the surplus of each
-    directed edge over its reverse counts.
-    """
-    start = faces.reshape(-1)
-    end = faces[:, [1, 2, 0]].reshape(-1)
-    n = np.int64(points.shape[0])
-    codes = np.sort(start * n + end)
-    first = np.empty(codes.size, dtype=bool)
-    first[:1] = True
-    np.not_equal(codes[1:], codes[:-1], out=first[1:])
-    keys = codes[first]                                           # each directed edge once, and its count
-    counts = np.diff(np.append(np.flatnonzero(first), codes.size))
-    reverse = (keys % n) * n + keys // n
-    at = np.minimum(np.searchsorted(keys, reverse), keys.size - 1)
-    surplus = counts - np.where(keys[at] == reverse, counts[at], 0)
-    keep = surplus > 0
-    i, j, surplus = keys[keep] // n, keys[keep] % n, surplus[keep]
-    k = i.size
-    pi, pj = points[i], points[j]
-    lengths = np.linalg.norm(np.concatenate([pj - pi, pi - apex, pj - apex]), axis=1)   # row by row, as three calls
-    wall = (lengths[:k] + largest) * (delta[i] + delta[j])
-    reach = np.maximum(lengths[k:2 * k], lengths[2 * k:]) + largest
-    return float(np.add.reduce(surplus * wall * reach)) / 3.0 * (1 + 1e-9)
 
 
 def widened(moments, vertices, *, swept=0.0, reach=0.0, dropped=None):

@@ -1528,15 +1528,36 @@ static int columns_build(Labels *L, int axis)
                 for (int y = y0; y <= y1; y++)
                     c->needed[(int64_t)x * side + y] = 1;
         }
+        /* A bound on the entries of every face's columns (a face spans at most its extent's columns plus two
+         * along each axis): when it stays within 16 per face, no face needs its columns counted, and a face
+         * whose box lies half a column or more outside the columns listed is passed over on its box alone. */
+        double bound = 0.0, edge[4] = {-INFINITY, INFINITY, -INFINITY, INFINITY};
+        for (int64_t t = 0; t < L->m; t++) {
+            double cx = (L->hi[3 * t + a1] - L->lo[3 * t + a1]) * c->inverse[0] * (1 + 1e-12) + 2.000001;
+            double cy = (L->hi[3 * t + a2] - L->lo[3 * t + a2]) * c->inverse[1] * (1 + 1e-12) + 2.000001;
+            bound += (cx < side ? cx : side) * (cy < side ? cy : side);
+        }
+        int counted = !(side > 1 && L->m && bound <= 16.0 * (double)L->m * (1 - 1e-9)) || reach[1] < reach[0];
+        if (!counted) {
+            edge[0] = c->origin[0] + (reach[0] - 0.5) / c->inverse[0];
+            edge[1] = c->origin[0] + (reach[1] + 1.5) / c->inverse[0];
+            edge[2] = c->origin[1] + (reach[2] - 0.5) / c->inverse[1];
+            edge[3] = c->origin[1] + (reach[3] + 1.5) / c->inverse[1];
+        }
         /* one pass: each face's columns, counted, and those listed kept */
         int64_t entries = 0;
         n_listed = 0;
         for (int64_t t = 0; t < L->m; t++) {
+            if (!counted && (L->hi[3 * t + a1] < edge[0] || L->lo[3 * t + a1] > edge[1]
+                             || L->hi[3 * t + a2] < edge[2] || L->lo[3 * t + a2] > edge[3]))
+                continue;                /* surely in no listed column */
             int x0 = column_of(c, 0, L->lo[3 * t + a1]), x1 = column_of(c, 0, L->hi[3 * t + a1]);
             int y0 = column_of(c, 1, L->lo[3 * t + a2]), y1 = column_of(c, 1, L->hi[3 * t + a2]);
-            entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
-            if (side > 1 && entries > 16 * L->m)
-                break;                   /* large faces: fewer columns (below), before listing them all */
+            if (counted) {
+                entries += (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1);
+                if (side > 1 && entries > 16 * L->m)
+                    break;               /* large faces: fewer columns (below), before listing them all */
+            }
             if (x1 < reach[0] || x0 > reach[1] || y1 < reach[2] || y0 > reach[3])
                 continue;                /* in no listed column */
             x0 = x0 > reach[0] ? x0 : reach[0], x1 = x1 < reach[1] ? x1 : reach[1];
@@ -1943,13 +1964,10 @@ typedef struct {
     uint32_t face;
 } Corner;
 
-int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label)
+int patch_labels(const int64_t *F, int64_t m, int64_t n, const uint8_t *cut, int64_t *label)
 {
     if (m >= ((int64_t)1 << 32))
         return -1;
-    int64_t n = 0;
-    for (int64_t i = 0; i < 3 * m; i++)
-        n = F[i] + 1 > n ? F[i] + 1 : n;
     int64_t *begin = calloc(n + 1, sizeof(int64_t));
     Corner *around = malloc(sizeof(Corner) * (3 * m + 1));       /* the corners at each vertex (vertices < 2**31) */
     if (!begin || !around) {
@@ -1969,19 +1987,20 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
     begin[0] = 0;
     for (int64_t t = 0; t < m; t++)
         label[t] = t;
-    for (int64_t t = 0; t < m; t++) {
-        if (cut[t])
-            continue;
-        for (int k = 0; k < 3; k++) {
-            int64_t a = F[3 * t + k], b = F[3 * t + (k + 1) % 3];
-            if (a > b)
-                continue;        /* the face across, if it pairs with this one, runs b -> a: seen from there */
+    /* vertex by vertex (its corners are together in memory), each edge a -> b of an uncut face leaving a with
+     * a < b: the face across, if it pairs with this one, runs b -> a, seen from there.  Each patch's label
+     * is its lowest face whatever the order of the unions. */
+    for (int64_t a = 0; a < n; a++) {
+        const Corner *first = around + begin[a], *end = around + begin[a + 1];
+        for (const Corner *x = first; x < end; x++) {
+            int64_t b = x->next, t = x->face;
+            if (a > b || cut[t])
+                continue;
             /* the edges a -> b and b -> a of every face: each leaves one of a's corners or enters one */
             int count = 0;
             int64_t other = -1;
             int reverse = 0;
-            for (int64_t e = begin[a]; e < begin[a + 1]; e++) {
-                const Corner *c = around + e;
+            for (const Corner *c = first; c < end; c++) {
                 if (c->next == b) {
                     count++;
                     if (c->face != t)
@@ -1994,9 +2013,9 @@ int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label
                 }
             }
             if (count == 2 && other >= 0 && reverse && !cut[other]) {
-                int64_t x = root_of(label, t), y = root_of(label, other);
-                if (x != y)
-                    label[x > y ? x : y] = x < y ? x : y;
+                int64_t r = root_of(label, t), y = root_of(label, other);
+                if (r != y)
+                    label[r > y ? r : y] = r < y ? r : y;
             }
         }
     }

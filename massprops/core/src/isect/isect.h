@@ -210,8 +210,39 @@ void refine_points(const double *V, const int64_t *F, const int64_t *defs, int64
                    int threads);
 
 /* Per face, a label shared by the uncut faces joined across edges that exactly two faces use, once
- * each way (faces are below 2**32 vertices).  0, or -1 when memory ran out. */
-int patch_labels(const int64_t *F, int64_t m, const uint8_t *cut, int64_t *label);
+ * each way (faces are below 2**32; their vertices below n, below 2**31).  0, or -1 when memory ran out. */
+int patch_labels(const int64_t *F, int64_t m, int64_t n, const uint8_t *cut, int64_t *label);
+
+/* The kept pieces put together (assemble.c).  fan_cells: cells[i] (its corners corners[starts[c] ..
+ * starts[c + 1]]) fanned into fan_count(...) triangles, from its first corner, or from its last one
+ * turned where not outward[i].  patch_faces: the faces whose patch has side > 0 in order, then those
+ * with side < 0 reversed; their count.  used_corners: the new corners (n + j, j < q) the triangles T use,
+ * ascending; their count, or -1.  distinct_corners: the rows table[i] (6 doubles: point, rounding) of
+ * corners used[i], distinct in numpy's lexicographic order into rows; T's new corners renumbered to
+ * n + their row; the rows' count, or -1. */
+int64_t fan_count(const int64_t *starts, const int64_t *cells, int64_t k);
+void fan_cells(const int64_t *starts, const int64_t *corners, const int64_t *cells, const uint8_t *outward,
+               int64_t k, int64_t *out);
+int64_t patch_faces(const int64_t *F, int64_t m, const int64_t *patch, const int8_t *side, int64_t *out);
+int64_t used_corners(const int64_t *T, int64_t k, int64_t n, int64_t q, int64_t *used);
+int64_t distinct_corners(const double *table, int64_t u, const int64_t *used, int64_t q, int64_t n, int64_t *T,
+                         int64_t k, double *rows);
+/* kept_corners: the new corners the triangles T use: the compiled cut's (P, R, defined by defs; q < qc),
+ * rounded again from their exact values where the filter's bound exceeds a unit in the last place
+ * (refine_points), then the exact path's (EP, ER); made distinct into rows and renumbered in T as
+ * distinct_corners does.  The rows' count, or -1 when memory ran out. */
+int64_t kept_corners(const double *V, const int64_t *F, int64_t n, int64_t *T, int64_t k, const double *P,
+                     const double *R, const int64_t *defs, int64_t qc, const double *EP, const double *ER, int64_t qe,
+                     int threads, double *rows);
+
+/* The arrangement's new corners Q (q, 3, scaled) in mesh units (reference + Q * power, into points after
+ * the n vertices V), each one's move (its rounding R * power plus the addition's exact error), and the
+ * terms of the volume those moves may sweep across the pieces F (k, 3): one per face around a moved
+ * corner, one per directed edge of those faces that its reverse does not cancel (swept.c).  0, or -1
+ * when memory ran out; the terms are malloc'd. */
+int swept_pieces(const double *V, int64_t n, const double *Q, const double *R, int64_t q, double power,
+                 const double *ref, const int64_t *F, int64_t k, double *points, double *largest,
+                 double **face_terms, int64_t *n_faces, double **wall_terms, int64_t *n_walls);
 
 /* Winding numbers (front[q]) at points of faces qface[q] over qxy[q] (the axes after the face's dropped
  * one; NaN: the face's centroid), off the surface by Simulation of Simplicity as the exact path does;

@@ -9,7 +9,8 @@
  *   arrange(V, F, pairs, threads)    the arrangement's cut stage (arrange.c)
  *   labels(V, F, weights, ...)       the winding numbers of the arrangement's pieces (arrange.c)
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
- *   refine(V, F, defs, q, err)       the kept new points rounded from their exact values (arrange.c)
+ *   swept(V, Q, R, power, ref, F)    the new corners in mesh units and their swept volume's terms (swept.c)
+ *   fans, patch_faces, kept_corners: the kept pieces put together (assemble.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -75,7 +76,7 @@ static PyObject *py_degenerate(PyObject *self, PyObject *args)
     if (!bad)
         bad = bad_faces(F, m, vb.len / 24);
     for (Py_ssize_t t = 0; t < m && !bad; t++)
-        out[t] = triangle_axis(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]) < 0;
+        out[t] = !has_area(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2]);   /* filter first */
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&vb);
     PyBuffer_Release(&fb);
@@ -407,8 +408,13 @@ static PyObject *py_labels(PyObject *self, PyObject *args)
 static PyObject *py_patches(PyObject *self, PyObject *args)
 {
     PyObject *fo, *co;
-    if (!PyArg_ParseTuple(args, "OO", &fo, &co))
+    long long n;
+    if (!PyArg_ParseTuple(args, "OOL", &fo, &co, &n))
         return NULL;
+    if (n < 0 || n > ((int64_t)1 << 31)) {
+        PyErr_SetString(PyExc_ValueError, "the vertex count is out of range");
+        return NULL;
+    }
     Py_buffer fb, cb;
     if (get_buffer(fo, &fb, 24, 0, "faces") < 0)
         return NULL;
@@ -424,71 +430,218 @@ static PyObject *py_patches(PyObject *self, PyObject *args)
         const int64_t *F = fb.buf;
         Py_BEGIN_ALLOW_THREADS
         for (Py_ssize_t i = 0; i < 3 * m && !bad; i++)
-            if (F[i] < 0 || F[i] >= ((int64_t)1 << 31))
+            if (F[i] < 0 || F[i] >= n)
                 bad = "a face names a vertex out of range";
         if (!bad)
-            code = patch_labels(F, m, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
+            code = patch_labels(F, m, n, cb.buf, (int64_t *)PyBytes_AS_STRING(out));
         Py_END_ALLOW_THREADS
     }
+    /* the patches' roots: the uncut faces labelled by themselves (each patch's lowest face), ascending */
+    PyObject *roots = NULL;
+    if (out && !bad && code == 0) {
+        const int64_t *label = (const int64_t *)PyBytes_AS_STRING(out);
+        const uint8_t *cut = cb.buf;
+        Py_ssize_t k = 0;
+        for (Py_ssize_t t = 0; t < m; t++)
+            k += !cut[t] && label[t] == t;
+        roots = PyBytes_FromStringAndSize(NULL, 8 * k);
+        if (roots) {
+            int64_t *root = (int64_t *)PyBytes_AS_STRING(roots);
+            for (Py_ssize_t t = 0; t < m; t++)
+                if (!cut[t] && label[t] == t)
+                    *root++ = t;
+        }
+    }
     PyBuffer_Release(&fb), PyBuffer_Release(&cb);
-    if (bad || code < 0) {
+    if (bad || code < 0 || !roots) {
         Py_XDECREF(out);
         if (bad)
             PyErr_SetString(PyExc_ValueError, bad);
-        else
+        else if (code < 0)
             PyErr_NoMemory();
         return NULL;
     }
+    return Py_BuildValue("NN", out, roots);
+}
+
+static PyObject *py_swept(PyObject *self, PyObject *args)
+{
+    PyObject *vo, *qo, *ro, *reo, *fo;
+    double power;
+    if (!PyArg_ParseTuple(args, "OOOdOO", &vo, &qo, &ro, &power, &reo, &fo))
+        return NULL;
+    Py_buffer vb, qb, rb, eb, fb;
+    if (get_three(vo, fo, qo, &vb, &fb, &qb, 24, 0, "points") < 0)
+        return NULL;
+    if (get_buffer(ro, &rb, 24, 0, "rounding") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb);
+        return NULL;
+    }
+    if (get_buffer(reo, &eb, 24, 0, "reference") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb), PyBuffer_Release(&rb);
+        return NULL;
+    }
+    Py_ssize_t n = vb.len / 24, q = qb.len / 24, k = fb.len / 24;
+    const char *bad = vb.len % 24 ? "vertices must be (n, 3)"
+                      : fb.len % 24 ? "faces must be (k, 3)"
+                      : rb.len != qb.len ? "one rounding per point"
+                      : eb.len != 24 ? "the reference is one point" : NULL;
+    PyObject *points = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * (n + q));
+    double largest = 0.0, *face_terms = NULL, *wall_terms = NULL;
+    int64_t n_faces = 0, n_walls = 0;
+    int code = 0;
+    if (points) {
+        Py_BEGIN_ALLOW_THREADS
+        bad = bad_faces(fb.buf, k, n + q);
+        if (!bad)
+            code = swept_pieces(vb.buf, n, qb.buf, rb.buf, q, power, eb.buf, fb.buf, k,
+                                (double *)PyBytes_AS_STRING(points), &largest, &face_terms, &n_faces,
+                                &wall_terms, &n_walls);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&qb), PyBuffer_Release(&rb);
+    PyBuffer_Release(&eb);
+    PyObject *result = NULL;
+    if (points && !bad && code == 0) {
+        PyObject *faces = PyBytes_FromStringAndSize((const char *)face_terms, 8 * n_faces);
+        PyObject *walls = PyBytes_FromStringAndSize((const char *)wall_terms, 8 * n_walls);
+        if (faces && walls)
+            result = Py_BuildValue("NNNd", points, faces, walls, largest);
+        else
+            Py_XDECREF(points), Py_XDECREF(faces), Py_XDECREF(walls);
+    } else {
+        Py_XDECREF(points);
+        if (bad)
+            PyErr_SetString(PyExc_ValueError, bad);
+        else if (code < 0)
+            PyErr_NoMemory();
+    }
+    free(face_terms), free(wall_terms);
+    return result;
+}
+
+/* ---- the kept pieces put together (assemble.c) ---------------------------------------------- */
+
+/* Up to four C-contiguous buffers of the item sizes given (0: none); all or none are held. */
+static int get_many(PyObject **objs, Py_buffer *views, const Py_ssize_t *itemsizes, const int *writable, int k)
+{
+    for (int i = 0; i < k; i++)
+        if (get_buffer(objs[i], views + i, itemsizes[i], writable[i], "array") < 0) {
+            while (i-- > 0)
+                PyBuffer_Release(views + i);
+            return -1;
+        }
+    return 0;
+}
+
+static void release_many(Py_buffer *views, int k)
+{
+    for (int i = 0; i < k; i++)
+        PyBuffer_Release(views + i);
+}
+
+static PyObject *py_fans(PyObject *self, PyObject *args)
+{
+    PyObject *o[4];
+    Py_buffer b[4];
+    if (!PyArg_ParseTuple(args, "OOOO", o, o + 1, o + 2, o + 3)
+        || get_many(o, b, (Py_ssize_t[]){8, 8, 8, 1}, (int[]){0, 0, 0, 0}, 4) < 0)
+        return NULL;
+    const int64_t *starts = b[0].buf, *cells = b[2].buf;
+    Py_ssize_t n_starts = b[0].len / 8, n_corners = b[1].len / 8, k = b[2].len / 8;
+    const char *bad = b[3].len != k ? "one outward flag per cell" : NULL;
+    for (Py_ssize_t i = 0; i < k && !bad; i++)
+        if (cells[i] < 0 || cells[i] + 1 >= n_starts || starts[cells[i]] < 0
+            || starts[cells[i] + 1] - starts[cells[i]] < 2 || starts[cells[i] + 1] > n_corners)
+            bad = "a cell does not exist or has fewer than two corners";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * fan_count(starts, cells, k));
+    if (out)
+        fan_cells(starts, b[1].buf, cells, b[3].buf, k, (int64_t *)PyBytes_AS_STRING(out));
+    release_many(b, 4);
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
     return out;
 }
 
-static PyObject *py_refine(PyObject *self, PyObject *args)
+static PyObject *py_patch_faces(PyObject *self, PyObject *args)
 {
-    PyObject *vo, *fo, *dobj, *qo, *eo;
+    PyObject *o[3];
+    Py_buffer b[3];
+    if (!PyArg_ParseTuple(args, "OOO", o, o + 1, o + 2)
+        || get_many(o, b, (Py_ssize_t[]){24, 8, 1}, (int[]){0, 0, 0}, 3) < 0)
+        return NULL;
+    Py_ssize_t m = b[0].len / 24;
+    const int64_t *patch = b[1].buf;
+    const char *bad = b[1].len / 8 != m ? "one patch per face" : NULL;
+    for (Py_ssize_t t = 0; t < m && !bad; t++)
+        if (patch[t] < 0 || patch[t] >= b[2].len)
+            bad = "a patch has no side";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 24 * m);
+    if (out) {
+        int64_t k = patch_faces(b[0].buf, m, patch, b[2].buf, (int64_t *)PyBytes_AS_STRING(out));
+        if (k < m)
+            _PyBytes_Resize(&out, 24 * k);
+    }
+    release_many(b, 3);
+    if (bad)
+        PyErr_SetString(PyExc_ValueError, bad);
+    return out;
+}
+
+/* Point definitions (7 int64 each, as arrange gives them) that name only what exists; NULL or a message. */
+static const char *bad_definitions(const int64_t *d, Py_ssize_t k, Py_ssize_t n, Py_ssize_t m)
+{
+    for (Py_ssize_t i = 0; i < k; i++) {
+        int64_t kind = d[7 * i];
+        if (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0 || d[7 * i + 6] > 2)
+            return "a point definition is not one the arrangement makes";
+        for (int j = 1; j <= (kind == 2 ? 4 : 3); j++) {
+            /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
+            int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
+            if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
+                return "a point definition names something that does not exist";
+        }
+    }
+    return NULL;
+}
+
+static PyObject *py_kept_corners(PyObject *self, PyObject *args)
+{
+    PyObject *o[8];
+    Py_buffer b[8];
     int threads;
-    if (!PyArg_ParseTuple(args, "OOOOOi", &vo, &fo, &dobj, &qo, &eo, &threads))
+    if (!PyArg_ParseTuple(args, "OOOOOOOOi", o, o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, &threads)
+        || get_many(o, b, (Py_ssize_t[]){24, 24, 24, 24, 24, 56, 24, 24}, (int[]){0, 0, 1, 0, 0, 0, 0, 0}, 8) < 0)
         return NULL;
     threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
-    Py_buffer vb, fb, db, qb, eb;
-    if (get_three(vo, fo, dobj, &vb, &fb, &db, 56, 0, "definitions") < 0)
-        return NULL;
-    if (get_buffer(qo, &qb, 24, 1, "points") < 0) {
-        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db);
-        return NULL;
-    }
-    if (get_buffer(eo, &eb, 24, 1, "errors") < 0) {
-        PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
-        return NULL;
-    }
-    Py_ssize_t k = db.len / 56, m = fb.len / 24, n = vb.len / 24;
-    const char *bad = qb.len / 24 != k || eb.len / 24 != k ? "one point and one error per definition" : NULL;
-    if (!bad) {
+    Py_ssize_t n = b[0].len / 24, m = b[1].len / 24, k = b[2].len / 24, qc = b[3].len / 24, qe = b[6].len / 24;
+    const int64_t *T = b[2].buf;
+    const char *bad = b[4].len != b[3].len || b[5].len / 56 != qc ? "one rounding and one definition per point"
+                      : b[7].len != b[6].len ? "one rounding per exact point" : NULL;
+    if (!bad)
+        bad = bad_faces(b[1].buf, m, n);
+    if (!bad)
+        bad = bad_definitions(b[5].buf, qc, n, m);
+    for (Py_ssize_t i = 0; i < 3 * k && !bad; i++)
+        if (T[i] < 0 || T[i] >= n + qc + qe)
+            bad = "a triangle names a corner that does not exist";
+    PyObject *out = bad ? NULL : PyBytes_FromStringAndSize(NULL, 48 * (qc + qe));
+    if (out) {
+        int64_t r;
         Py_BEGIN_ALLOW_THREADS
-        bad = bad_faces(fb.buf, m, n);
-        const int64_t *d = db.buf;
-        for (Py_ssize_t i = 0; i < k && !bad; i++) {
-            int64_t kind = d[7 * i];
-            for (int j = 1; j <= (kind == 2 ? 4 : 3) && !bad; j++) {
-                /* LPI: two vertices and a face; EE: four vertices; TPI: three faces */
-                int64_t top = kind == 3 || (kind == 1 && j == 3) ? m : n;
-                if (d[7 * i + j] < 0 || d[7 * i + j] >= top)
-                    bad = "a point definition names something that does not exist";
-            }
-            if (!bad && (kind < 1 || kind > 3 || d[7 * i + 5] < 0 || d[7 * i + 5] > 2 || d[7 * i + 6] < 0
-                         || d[7 * i + 6] > 2))
-                bad = "a point definition is not one the arrangement makes";
-        }
-        if (!bad)
-            refine_points(vb.buf, fb.buf, db.buf, k, qb.buf, eb.buf, threads);
+        r = kept_corners(b[0].buf, b[1].buf, n, b[2].buf, k, b[3].buf, b[4].buf, b[5].buf, qc, b[6].buf, b[7].buf,
+                         qe, threads, (double *)PyBytes_AS_STRING(out));
         Py_END_ALLOW_THREADS
+        if (r < 0) {
+            Py_CLEAR(out);
+            PyErr_NoMemory();
+        } else if (r < qc + qe)
+            _PyBytes_Resize(&out, 48 * r);
     }
-    PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&db), PyBuffer_Release(&qb);
-    PyBuffer_Release(&eb);
-    if (bad) {
+    release_many(b, 8);
+    if (bad)
         PyErr_SetString(PyExc_ValueError, bad);
-        return NULL;
-    }
-    Py_RETURN_NONE;
+    return out;
 }
 
 static PyMethodDef methods[] = {
@@ -512,11 +665,22 @@ static PyMethodDef methods[] = {
      "partners, threads) -> (winding numbers int64, net weights int64, owned int8, status int8: 0 answered,\n"
      "1 handed back, 2 no certified point) (bytes) (arrange.c)"},
     {"patches", py_patches, METH_VARARGS,
-     "patches(faces, cut uint8) -> int64 labels (bytes): uncut faces joined across edges two faces use once\n"
-     "each way share a label (arrange.c)"},
-    {"refine", py_refine, METH_VARARGS,
-     "refine(vertices, faces, definitions (k, 7), points (k, 3), errors (k, 3), threads): the points rounded\n"
-     "again from their exact values where that certifies a smaller error (in place) (arrange.c)"},
+     "patches(faces, cut uint8, vertex count) -> (int64 labels, int64 roots) (bytes): uncut faces joined across edges two faces\n"
+     "use once each way share a label, their lowest face (a root) (arrange.c)"},
+    {"swept", py_swept, METH_VARARGS,
+     "swept(vertices, new points (q, 3) scaled, their rounding (q, 3), power, reference (3), pieces (k, 3))\n"
+     "-> (vertices and new points in mesh units (bytes), terms per face around a moved corner (bytes), terms\n"
+     "per uncancelled directed edge (bytes), largest move) (swept.c)"},
+    {"fans", py_fans, METH_VARARGS,
+     "fans(starts, corners, cells, outward uint8) -> int64 triangles (bytes): the cells fanned (assemble.c)"},
+    {"patch_faces", py_patch_faces, METH_VARARGS,
+     "patch_faces(faces, patch, side int8 per patch) -> int64 faces (bytes): side > 0 as they are, then side < 0\n"
+     "reversed (assemble.c)"},
+    {"kept_corners", py_kept_corners, METH_VARARGS,
+     "kept_corners(vertices, faces, triangles (writable), points, rounding, definitions (q, 7), exact points,\n"
+     "their rounding, threads) -> float64 rows (r, 6) (bytes): the new corners the triangles use, the compiled\n"
+     "cut's rounded again from their exact values where their bound exceeds an ulp, distinct in lexicographic\n"
+     "order; the triangles' new corners renumbered to n + their row (assemble.c)"},
     {NULL, NULL, 0, NULL},
 };
 
