@@ -26,6 +26,9 @@
 #include "../core.h"
 #include "predicates.h"
 
+/* Face t's shell label; shell is NULL when every face is of shell 0 (no labels were given). */
+static inline int64_t shell_at(const int64_t *shell, int64_t t) { return shell ? shell[t] : 0; }
+
 /* malloc (calloc when `zeroed`) of a large array, advised into transparent huge pages where the
  * kernel offers them on request: one page fault per 2 MiB instead of 512 (grid.c). */
 void *isect_alloc(size_t bytes, int zeroed);
@@ -168,8 +171,9 @@ typedef struct {
 } Found;
 
 /* Pairs of faces that meet: within a shell (other than along what they share) when `within`,
- * between shells when `between`.  0, or -1 when memory ran out.  The result does not depend
- * on the thread count. */
+ * between shells when `between`.  shell NULL: every face is of shell 0 (n_shells 1); active
+ * NULL: every face is active.  0, or -1 when memory ran out.  The result does not depend on the
+ * thread count. */
 int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active, int64_t n,
                  int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int threads,
                  Found *out, Stars *stars);

@@ -297,7 +297,7 @@ static int one_sign(const Grid *g, const uint32_t *list, int64_t k, int axis, in
     for (int64_t i = 0; i < k; i++) {
         const int64_t *c = g->corner + 3 * (int64_t)list[i];
         int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
-        if (o == 0 || (sign != 0 && o != sign) || g->shell[list[i]] != shell)
+        if (o == 0 || (sign != 0 && o != sign) || shell_at(g->shell, list[i]) != shell)
             return 0;
         sign = o;
     }
@@ -312,10 +312,10 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     const double *V = g->V;
     if (k <= 1)
         return 1;
-    int64_t shell = g->shell[list[0]];
+    int64_t shell = shell_at(g->shell, list[0]);
     if (pa->embedded && pa->embedded[shell]) {
         for (int64_t i = 1; i < k; i++)
-            if (g->shell[list[i]] != shell)
+            if (shell_at(g->shell, list[i]) != shell)
                 return 0;
         return 1;
     }

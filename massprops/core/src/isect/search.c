@@ -276,7 +276,7 @@ static int block_has_self(const Block *b, int64_t shell)
 static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u)
 {
     const Grid *g = s->g;
-    int64_t st = g->shell[t], su = g->shell[u];
+    int64_t st = shell_at(g->shell, t), su = shell_at(g->shell, u);
     if (st == su) {
         if (s->max_examples >= 0 && b->n_examples >= s->max_examples && block_has_self(b, st))
             return;
@@ -369,7 +369,7 @@ static inline void candidate(const Search *s, Block *b, Seen *seen, int64_t t, i
     b->candidates++;
     if (!boxes_meet(g, t, u))
         return;
-    int64_t st = g->shell[t], su = g->shell[u];
+    int64_t st = shell_at(g->shell, t), su = shell_at(g->shell, u);
     if (st == su) {
         if (!s->within || (s->embedded && s->embedded[st]) || share_certified(g, t, u))
             return;
@@ -456,7 +456,7 @@ static int sweep_pairs(const Search *s, Block *b, Seen *seen, Scratch *sc, int64
         uint32_t t = g->face[e + i];
         Item *it = &sc->items[i];
         it->face = t;
-        it->shell = g->shell[t];
+        it->shell = shell_at(g->shell, t);
         it->certified = g->certified[t];
         uint8_t home = 0;
         for (int a = 0; a < 3; a++) {
@@ -726,9 +726,9 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         }
         /* one shell (labels are checked by the caller): no label read */
         for (int64_t t = 0; n_shells == 1 && t < m && !wanted[0]; t++)
-            wanted[0] = active[t] != 0;
+            wanted[0] = !active || active[t] != 0;
         for (int64_t t = 0; n_shells > 1 && t < m; t++)
-            wanted[shell[t]] |= active[t];
+            wanted[shell[t]] |= active ? active[t] : 1;
         /* out of memory for the certificates: every pair is tested */
         have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
         free(wanted);
@@ -737,11 +737,11 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
     int64_t taken = 0;
     int keep_all = n_shells == 1 && (between || !have_stars || !stars->shell_embedded[0]);
     for (int64_t t = 0; keep_all && t < m; t++) {
-        take[t] = active[t] != 0;
+        take[t] = !active || active[t] != 0;
         taken += take[t];
     }
     for (int64_t t = 0; !keep_all && t < m; t++) {
-        take[t] = active[t] && (between || !have_stars || !stars->shell_embedded[shell[t]]);
+        take[t] = (!active || active[t]) && (between || !have_stars || !stars->shell_embedded[shell_at(shell, t)]);
         taken += take[t];
     }
     /* Faces in cells of a coarse grid certified embedded as a patch need no search of their own

@@ -410,7 +410,7 @@ static void centre_block(void *ctx, int worker, int64_t block)
      * workers may share a cache line: summing into them face by face made both cores wait on it) */
     double local[SUMS] = {0};
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        int64_t s = w->shell[t];
+        int64_t s = shell_at(w->shell, t);
         if (!w->wanted[s])
             continue;
         if (s != current) {
@@ -466,7 +466,7 @@ static void sign_block(void *ctx, int worker, int64_t block)
     int64_t current = -1;
     int8_t seen = SIGN_NONE;
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        int64_t s = w->shell[t];
+        int64_t s = shell_at(w->shell, t);
         if (!w->wanted[s])
             continue;
         if (s != current) {
@@ -503,7 +503,7 @@ static int64_t star_shell(const Stars *s, const int64_t *shell, int64_t v)
 static void fail_shells(ShellWork *w, int64_t v)
 {
     for (int64_t i = w->s->begin[v]; i < w->s->begin[v + 1]; i++)
-        __atomic_store_n(&w->failed[w->shell[w->s->ring[i] >> 2]], 1, __ATOMIC_RELAXED);
+        __atomic_store_n(&w->failed[shell_at(w->shell, w->s->ring[i] >> 2)], 1, __ATOMIC_RELAXED);
 }
 
 /* Condition (b) for the vertices of star-shaped shells; the star certificate for the others. */
@@ -608,8 +608,8 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     for (int64_t sh = 0; sh < n_shells; sh++)
         w.origin[sh] = -1;
     for (int64_t t = 0, found = 0; t < s->m && found < n_shells; t++)
-        if (w.origin[shell[t]] < 0) {
-            w.origin[shell[t]] = s->F[3 * t];
+        if (w.origin[shell_at(shell, t)] < 0) {
+            w.origin[shell_at(shell, t)] = s->F[3 * t];
             found++;
         }
     int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
