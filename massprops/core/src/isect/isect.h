@@ -43,8 +43,8 @@ typedef struct {
     int64_t n, m;             /* vertices, faces */
     int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
     uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
-    uint64_t *xy;             /* until the cycles are found: per incidence as filed, its face's next corner
-                               * | previous corner << 32 (NULL: read from F) */
+    uint64_t *xy;             /* until the cycles are found, on small meshes: per incidence as filed, its
+                               * face's next corner | previous corner << 32 (NULL: read from F) */
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
