@@ -41,7 +41,7 @@ typedef struct {
     const double *V;
     const int64_t *F;
     int64_t n, m;             /* vertices, faces */
-    int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
+    uint32_t *begin;          /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) (3m < 2**32) */
     uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
     uint64_t *xy;             /* until the cycles are found, on small meshes: per incidence as filed, its
                                * face's next corner | previous corner << 32 (NULL: read from F) */
@@ -66,7 +66,7 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
 int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads);
 void stars_free(Stars *s);
 
-static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v + 1] - s->begin[v]; }
+static inline int64_t star_degree(const Stars *s, int64_t v) { return (int64_t)s->begin[v + 1] - s->begin[v]; }
 
 /* ---- grid.c: faces in space order and a hierarchical grid of their boxes --------------- */
 

@@ -113,7 +113,7 @@ static void file_range(void *ctx, int64_t range)
     Stars *s = w->s;
     const int64_t *F = s->F;
     int64_t lo = s->n * range / w->ranges, hi = s->n * (range + 1) / w->ranges, m = s->m;
-    int64_t *next = s->begin + 1;
+    uint32_t *next = s->begin + 1;
     if (!w->fill) {
         for (int64_t i = 0; i < 3 * m; i++)
             if (F[i] >= lo && F[i] < hi)
@@ -138,7 +138,7 @@ static void file_range(void *ctx, int64_t range)
 static int build_incidences(Stars *s, int threads)
 {
     int64_t n = s->n, m = s->m;
-    s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
+    s->begin = isect_alloc(sizeof(uint32_t) * (n + 2), 1);
     s->ring = isect_alloc(sizeof(uint32_t) * 3 * m, 0);
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
@@ -152,7 +152,7 @@ static int build_incidences(Stars *s, int threads)
     parallel_blocks(threads, w.ranges, file_range, &w);
     for (int64_t v = 0, total = 0; v <= n; v++) {
         int64_t c = s->begin[v];
-        s->begin[v] = total;
+        s->begin[v] = (uint32_t)total;
         total += c;
     }
     w.fill = 1;
