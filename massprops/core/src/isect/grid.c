@@ -330,7 +330,7 @@ static void axis_block(void *ctx, int64_t block)
     double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
         w->axis[t] = -1;
-        if (!w->take[t])
+        if (w->take && !w->take[t])
             continue;
         P a = w->V + 3 * w->F[3 * t], b = w->V + 3 * w->F[3 * t + 1], c = w->V + 3 * w->F[3 * t + 2];
         w->axis[t] = (int8_t)triangle_axis(a, b, c);

@@ -541,7 +541,7 @@ static void valid_block(void *ctx, int64_t block)
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        uint32_t home = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        uint32_t home = (!co->take || co->take[t]) && has_area(a, b, e) ? 0 : HOME_NONE;
         co->home[t] = home;
         if (home == HOME_NONE)
             continue;
@@ -699,8 +699,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
 {
     /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
      * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
-    int64_t taken = 0;
-    for (int64_t t = 0; t < m; t++)
+    int64_t taken = take ? 0 : m;
+    for (int64_t t = 0; take && t < m; t++)
         taken += take[t] != 0;
     int top = 1;
     while (top < PATCH_LEVEL && ((int64_t)1024 << (2 * (top + 1))) <= taken)

@@ -708,7 +708,7 @@ static void corners_block(void *ctx, int worker, int64_t block)
     Scratch *sc = &w->scratch[worker];
     int64_t end = (block + 1) * FACE_BLOCK < s->m ? (block + 1) * FACE_BLOCK : s->m, certified = 0;
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        if (!w->take[t])
+        if (w->take && !w->take[t])
             continue;
         for (int c = 0; c < 3; c++) {
             int64_t v = s->F[3 * t + c];
