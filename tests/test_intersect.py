@@ -8,6 +8,7 @@ axis theorem and segment clipping in Python integers and Fractions.
 from fractions import Fraction
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from massprops.core.intersect import ExactGeometry, orient3d_signs
@@ -590,3 +591,29 @@ def test_moments_from_the_checks_scaled_vertices_are_those_of_the_vertices(point
     own = integrate(vertices, faces, frame=geometry.frame)
     for name in ("det_sum", "det_error", "first", "first_error", "second", "second_error", "area2"):
         assert np.array_equal(getattr(given_scaled, name), getattr(own, name)), name
+
+
+@pytest.mark.parametrize("spike", [100, 186])
+def test_a_large_shell_meets_itself_exactly_where_its_pushed_vertex_makes_faces_cross(spike):
+    """A finely cut box of 23,232 faces (large enough that the search matches each vertex's faces
+    from the faces themselves), the middle of its bottom pushed up short of the top (100) or through
+    it (186).  Only the faces of the pushed vertex moved, so every crossing pair holds one of them,
+    and the other face's box meets its box: the pairs are those of that handful of faces, tested
+    exactly pair by pair, on one thread or two."""
+    rng = np.random.default_rng(7)
+    points, faces = _finely_cut_box(44, rng, spike)
+    assert len(faces) == 23232
+    pushed = next(i for i, p in enumerate(points) if p[0] == p[1] == 88 and p[2] == spike)
+    corners = np.array(points, dtype=np.int64)[np.array(faces)]
+    low, high = corners.min(axis=1), corners.max(axis=1)
+    moved = [t for t, f in enumerate(faces) if pushed in f]
+    near = np.zeros(len(faces), dtype=bool)
+    for t in moved:
+        near |= np.all((low <= high[t]) & (low[t] <= high), axis=1)
+    subset = np.flatnonzero(near)
+    expected = {(int(subset[a]), int(subset[b])) for a, b in crossing_pairs(points, [faces[t] for t in subset])}
+    assert bool(expected) == (spike == 186)
+    geometry = ExactGeometry(np.array(points, dtype=float))
+    for threads in (1, 2):
+        reported, pinched = geometry.crossing_pairs(np.array(faces), threads=threads)
+        assert {tuple(p) for p in reported.tolist()} == expected and pinched == 0

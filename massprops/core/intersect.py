@@ -194,11 +194,12 @@ class ExactGeometry:
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         if threads is None:
             threads = threads_for(faces.shape[0], _PARALLEL_ABOVE)
-        if shells is None or n_shells <= 1:
-            shells, n_shells = np.zeros(faces.shape[0], dtype=np.int64), 1
-        shells = np.ascontiguousarray(shells, dtype=np.int64)
-        active = np.ones(faces.shape[0], dtype=np.uint8)
-        found = _extension().pairs(self.vertices, faces, shells, active, int(n_shells), True, True, -1, int(threads))
+        # One shell: no labels (the core takes every face as shell 0) and no pairs between shells, so a
+        # shell certified embedded as a whole needs no patch or grid at all.
+        one = shells is None or n_shells <= 1
+        shells = None if one else np.ascontiguousarray(shells, dtype=np.int64)
+        found = _extension().pairs(self.vertices, faces, shells, None, 1 if one else int(n_shells), True, not one, -1,
+                                   int(threads))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
         pinched = None if found[7] < 0 else int(found[7])
         if pairs.shape[0] <= 1:

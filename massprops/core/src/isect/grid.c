@@ -330,7 +330,7 @@ static void axis_block(void *ctx, int64_t block)
     double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
         w->axis[t] = -1;
-        if (!w->take[t])
+        if (w->take && !w->take[t])
             continue;
         P a = w->V + 3 * w->F[3 * t], b = w->V + 3 * w->F[3 * t + 1], c = w->V + 3 * w->F[3 * t + 2];
         w->axis[t] = (int8_t)triangle_axis(a, b, c);
@@ -367,7 +367,8 @@ static void fill_block(void *ctx, int64_t block)
     for (int64_t s = s0; s < s1; s++) {
         int64_t t = w->order[s];
         g->id[s] = (uint32_t)t;
-        g->own_shell[s] = w->shell[t];
+        if (g->own_shell)
+            g->own_shell[s] = w->shell[t];
         g->own_axis[s] = w->axis[t];
         g->certified[s] = w->certified[t];
         for (int k = 0; k < 3; k++) {
@@ -402,14 +403,14 @@ static int fill_faces(Grid *g, Build *w, int threads)
     } else {
         g->id = malloc(sizeof(uint32_t) * n);
         g->corner = g->own_corner = isect_alloc(sizeof(int64_t) * 3 * n, 0);
-        g->shell = g->own_shell = isect_alloc(sizeof(int64_t) * n, 0);
+        g->shell = g->own_shell = w->shell ? isect_alloc(sizeof(int64_t) * n, 0) : NULL;
         g->axis = g->own_axis = malloc(n);
         if (w->lo) {
             g->lo = isect_alloc(sizeof(double) * 3 * n, 0);
             g->hi = isect_alloc(sizeof(double) * 3 * n, 0);
         }
         g->certified = malloc(n);
-        if (!g->id || !g->own_corner || !g->own_shell || !g->own_axis || (w->lo && (!g->lo || !g->hi))
+        if (!g->id || !g->own_corner || (w->shell && !g->own_shell) || !g->own_axis || (w->lo && (!g->lo || !g->hi))
             || !g->certified)
             return -1;
         parallel_blocks(threads, (n + BUILD_BLOCK - 1) / BUILD_BLOCK, fill_block, w);

@@ -26,6 +26,9 @@
 #include "../core.h"
 #include "predicates.h"
 
+/* Face t's shell label; shell is NULL when every face is of shell 0 (no labels were given). */
+static inline int64_t shell_at(const int64_t *shell, int64_t t) { return shell ? shell[t] : 0; }
+
 /* malloc (calloc when `zeroed`) of a large array, advised into transparent huge pages where the
  * kernel offers them on request: one page fault per 2 MiB instead of 512 (grid.c). */
 void *isect_alloc(size_t bytes, int zeroed);
@@ -38,10 +41,10 @@ typedef struct {
     const double *V;
     const int64_t *F;
     int64_t n, m;             /* vertices, faces */
-    int64_t *begin;           /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) */
+    uint32_t *begin;          /* n + 1: incidences of vertex v are ring[begin[v] .. begin[v + 1]) (3m < 2**32) */
     uint32_t *ring;           /* face << 2 | corner; around a manifold vertex in cyclic order */
-    uint64_t *xy;             /* until the cycles are found: per incidence as filed, its face's next corner
-                               * | previous corner << 32 (NULL: read from F) */
+    uint64_t *xy;             /* until the cycles are found, on small meshes: per incidence as filed, its
+                               * face's next corner | previous corner << 32 (NULL: read from F) */
     uint8_t *flag;            /* per vertex: STAR_CYCLE, STAR_EMBEDDED */
     uint8_t *shell_embedded;  /* per shell: the whole shell is certified embedded */
     int64_t certified_vertices, certified_shells;
@@ -63,7 +66,7 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
 int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads);
 void stars_free(Stars *s);
 
-static inline int64_t star_degree(const Stars *s, int64_t v) { return s->begin[v + 1] - s->begin[v]; }
+static inline int64_t star_degree(const Stars *s, int64_t v) { return (int64_t)s->begin[v + 1] - s->begin[v]; }
 
 /* ---- grid.c: faces in space order and a hierarchical grid of their boxes --------------- */
 
@@ -168,8 +171,9 @@ typedef struct {
 } Found;
 
 /* Pairs of faces that meet: within a shell (other than along what they share) when `within`,
- * between shells when `between`.  0, or -1 when memory ran out.  The result does not depend
- * on the thread count. */
+ * between shells when `between`.  shell NULL: every face is of shell 0 (n_shells 1); active
+ * NULL: every face is active.  0, or -1 when memory ran out.  The result does not depend on the
+ * thread count. */
 int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active, int64_t n,
                  int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int threads,
                  Found *out, Stars *stars);

@@ -34,6 +34,15 @@ static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t itemsize, int w
     return 0;
 }
 
+/* A buffer, or none for None (view->buf NULL; PyBuffer_Release does nothing with it). */
+static int get_optional(PyObject *obj, Py_buffer *view, Py_ssize_t itemsize, const char *name)
+{
+    if (obj != Py_None)
+        return get_buffer(obj, view, itemsize, 0, name);
+    memset(view, 0, sizeof(*view));
+    return 0;
+}
+
 /* The buffers of vertices (float64), faces (int64) and a third array; all or none are held. */
 static int get_three(PyObject *vo, PyObject *fo, PyObject *xo, Py_buffer *vb, Py_buffer *fb, Py_buffer *xb,
                      Py_ssize_t x_itemsize, int x_writable, const char *x_name)
@@ -112,10 +121,19 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
         return NULL;
     }
     threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    /* shell None: every face of shell 0 (n_shells 1); active None: every face */
     Py_buffer vb, fb, sb, ab;
-    if (get_three(vo, fo, so, &vb, &fb, &sb, 8, 0, "shell") < 0)
+    if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
         return NULL;
-    if (get_buffer(ao, &ab, 1, 0, "active") < 0) {
+    if (get_buffer(fo, &fb, 8, 0, "faces") < 0) {
+        PyBuffer_Release(&vb);
+        return NULL;
+    }
+    if (get_optional(so, &sb, 8, "shell") < 0) {
+        PyBuffer_Release(&vb), PyBuffer_Release(&fb);
+        return NULL;
+    }
+    if (get_optional(ao, &ab, 1, "active") < 0) {
         PyBuffer_Release(&vb), PyBuffer_Release(&fb), PyBuffer_Release(&sb);
         return NULL;
     }
@@ -127,12 +145,14 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
     Stars stars;
     memset(&found, 0, sizeof(found));
     memset(&stars, 0, sizeof(stars));
-    if (sb.len / 8 != m || ab.len != m)
+    if ((sb.buf && sb.len / 8 != m) || (ab.buf && ab.len != m))
         bad = "shell and active need one entry per face";
+    else if (!sb.buf && n_shells != 1)
+        bad = "shell labels are needed for more than one shell";
     if (!bad) {
         Py_BEGIN_ALLOW_THREADS
         bad = bad_faces(fb.buf, m, n);
-        if (!bad)
+        if (!bad && sb.buf)
             bad = bad_shells(sb.buf, m, n_shells);
         if (!bad)
             status = search_pairs(vb.buf, fb.buf, sb.buf, ab.buf, n, m, n_shells, within, between, max_examples,
@@ -648,7 +668,7 @@ static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
     {"pairs", py_pairs, METH_VARARGS,
-     "pairs(vertices, faces, shell, active, n_shells, within, between, max_examples (-1: every meeting pair, within and between shells), threads)\n"
+     "pairs(vertices, faces, shell (None: all of shell 0), active (None: all), n_shells, within, between, max_examples (-1: every meeting pair, within and between shells), threads)\n"
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
      "certified vertices, vertices whose faces do not turn once around them or -1)"},
     {"certificates", py_certificates, METH_VARARGS,

@@ -95,6 +95,7 @@ typedef struct {
     int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
     int64_t *boundary;        /* the boundary vertices in the table */
     int64_t *loop;            /* the boundary loop's vertices */
+    int64_t *seen;            /* the vertices of the patch being tried, as they are first met */
     Segment *segments, *sorted;
     uint32_t *list[PATCH_LEVEL];   /* faces of a child cell, per depth */
     uint8_t *octants[PATCH_LEVEL]; /* per face of a cell: the children it is in, per depth */
@@ -125,7 +126,7 @@ static inline uint64_t mix(uint64_t h)
 
 static void scratch_release(Scratch *sc)
 {
-    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->segments), free(sc->sorted);
+    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->seen), free(sc->segments), free(sc->sorted);
     for (int d = 0; d < PATCH_LEVEL; d++)
         free(sc->list[d]), free(sc->octants[d]);
 }
@@ -145,9 +146,10 @@ static int patch_reserve(Scratch *sc, int64_t k)
     sc->vertex = calloc(vertices, sizeof(Slot));
     sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
+    sc->seen = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->vertex && sc->boundary && sc->loop && sc->segments && sc->sorted;
+    int ok = sc->vertex && sc->boundary && sc->loop && sc->seen && sc->segments && sc->sorted;
     for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
         ok = (sc->octants[d] = malloc(cap)) && ok;
@@ -157,7 +159,7 @@ static int patch_reserve(Scratch *sc, int64_t k)
         memset(sc->list, 0, sizeof(sc->list));
         memset(sc->octants, 0, sizeof(sc->octants));
         sc->vertex = NULL;
-        sc->boundary = sc->loop = NULL;
+        sc->boundary = sc->loop = sc->seen = NULL;
         sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
@@ -191,14 +193,14 @@ static inline int64_t boundary_next(const Scratch *sc, int64_t v)
     }
 }
 
-/* Empty what the patch list[0..k), with `boundary` boundary vertices, filled. */
-static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t boundary)
+/* Empty what the patch list[0..k), with `vertices` vertices seen and `boundary` boundary vertices,
+ * filled. */
+static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t vertices, int64_t boundary)
 {
-    for (int64_t i = 0; i < k; i++) {
+    for (int64_t i = 0; i < k; i++)
         clear_bit(sc->face_bits, grid_id(g, list[i]));
-        for (int c = 0; c < 3; c++)
-            clear_bit(sc->vertex_bits, g->corner[3 * (int64_t)list[i] + c]);
-    }
+    for (int64_t i = 0; i < vertices; i++)
+        clear_bit(sc->vertex_bits, sc->seen[i]);
     for (int64_t i = 0; i < boundary; i++) {
         int64_t v = sc->boundary[i];
         for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
@@ -297,7 +299,7 @@ static int one_sign(const Grid *g, const uint32_t *list, int64_t k, int axis, in
     for (int64_t i = 0; i < k; i++) {
         const int64_t *c = g->corner + 3 * (int64_t)list[i];
         int o = porient(axis, g->V + 3 * c[0], g->V + 3 * c[1], g->V + 3 * c[2]);
-        if (o == 0 || (sign != 0 && o != sign) || g->shell[list[i]] != shell)
+        if (o == 0 || (sign != 0 && o != sign) || shell_at(g->shell, list[i]) != shell)
             return 0;
         sign = o;
     }
@@ -312,10 +314,10 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     const double *V = g->V;
     if (k <= 1)
         return 1;
-    int64_t shell = g->shell[list[0]];
+    int64_t shell = shell_at(g->shell, list[0]);
     if (pa->embedded && pa->embedded[shell]) {
         for (int64_t i = 1; i < k; i++)
-            if (g->shell[list[i]] != shell)
+            if (shell_at(g->shell, list[i]) != shell)
                 return 0;
         return 1;
     }
@@ -352,7 +354,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             if (bit(sc->vertex_bits, v))
                 continue;
             set_bit(sc->vertex_bits, v);
-            n_vertices++;
+            sc->seen[n_vertices++] = v;
             int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
             if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
                 ok = 0;
@@ -411,7 +413,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     /* (d) */
     if (ok)
         ok = loop_simple(V, sc->loop, n_boundary, axis, sc);
-    clear(sc, g, list, k, n_boundary);
+    clear(sc, g, list, k, n_vertices, n_boundary);
     return ok;
 }
 
@@ -539,7 +541,7 @@ static void valid_block(void *ctx, int64_t block)
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        uint32_t home = co->take[t] && has_area(a, b, e) ? 0 : HOME_NONE;
+        uint32_t home = (!co->take || co->take[t]) && has_area(a, b, e) ? 0 : HOME_NONE;
         co->home[t] = home;
         if (home == HOME_NONE)
             continue;
@@ -697,8 +699,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
 {
     /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
      * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
-    int64_t taken = 0;
-    for (int64_t t = 0; t < m; t++)
+    int64_t taken = take ? 0 : m;
+    for (int64_t t = 0; take && t < m; t++)
         taken += take[t] != 0;
     int top = 1;
     while (top < PATCH_LEVEL && ((int64_t)1024 << (2 * (top + 1))) <= taken)

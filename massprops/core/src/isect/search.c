@@ -276,7 +276,7 @@ static int block_has_self(const Block *b, int64_t shell)
 static void consider(const Search *s, Block *b, Seen *seen, int64_t t, int64_t u)
 {
     const Grid *g = s->g;
-    int64_t st = g->shell[t], su = g->shell[u];
+    int64_t st = shell_at(g->shell, t), su = shell_at(g->shell, u);
     if (st == su) {
         if (s->max_examples >= 0 && b->n_examples >= s->max_examples && block_has_self(b, st))
             return;
@@ -369,7 +369,7 @@ static inline void candidate(const Search *s, Block *b, Seen *seen, int64_t t, i
     b->candidates++;
     if (!boxes_meet(g, t, u))
         return;
-    int64_t st = g->shell[t], su = g->shell[u];
+    int64_t st = shell_at(g->shell, t), su = shell_at(g->shell, u);
     if (st == su) {
         if (!s->within || (s->embedded && s->embedded[st]) || share_certified(g, t, u))
             return;
@@ -456,7 +456,7 @@ static int sweep_pairs(const Search *s, Block *b, Seen *seen, Scratch *sc, int64
         uint32_t t = g->face[e + i];
         Item *it = &sc->items[i];
         it->face = t;
-        it->shell = g->shell[t];
+        it->shell = shell_at(g->shell, t);
         it->certified = g->certified[t];
         uint8_t home = 0;
         for (int a = 0; a < 3; a++) {
@@ -715,33 +715,34 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
     memset(out, 0, sizeof(*out));
     memset(stars, 0, sizeof(*stars));
     int have_stars = 0;
-    uint8_t *take = malloc(m ? m : 1);
-    if (!take)
-        return -1;
     if (within && m < ((int64_t)1 << 30)) {
         uint8_t *wanted = calloc(n_shells, 1);
-        if (!wanted) {
-            free(take);
+        if (!wanted)
             return -1;
-        }
         /* one shell (labels are checked by the caller): no label read */
         for (int64_t t = 0; n_shells == 1 && t < m && !wanted[0]; t++)
-            wanted[0] = active[t] != 0;
+            wanted[0] = !active || active[t] != 0;
         for (int64_t t = 0; n_shells > 1 && t < m; t++)
-            wanted[shell[t]] |= active[t];
+            wanted[shell[t]] |= active ? active[t] : 1;
         /* out of memory for the certificates: every pair is tested */
         have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
         free(wanted);
     }
-    /* Faces whose every pair is certified take no part unless other shells may meet them. */
+    /* Faces whose every pair is certified take no part unless other shells may meet them.  take
+     * NULL: every face (one shell, no active flags: no byte a face written). */
     int64_t taken = 0;
     int keep_all = n_shells == 1 && (between || !have_stars || !stars->shell_embedded[0]);
-    for (int64_t t = 0; keep_all && t < m; t++) {
+    uint8_t *take = keep_all && !active ? NULL : malloc(m ? m : 1);
+    if (!take && !(keep_all && !active))
+        return -1;                    /* the caller frees the stars */
+    if (!take)
+        taken = m;
+    for (int64_t t = 0; take && keep_all && t < m; t++) {
         take[t] = active[t] != 0;
         taken += take[t];
     }
-    for (int64_t t = 0; !keep_all && t < m; t++) {
-        take[t] = active[t] && (between || !have_stars || !stars->shell_embedded[shell[t]]);
+    for (int64_t t = 0; take && !keep_all && t < m; t++) {
+        take[t] = (!active || active[t]) && (between || !have_stars || !stars->shell_embedded[shell_at(shell, t)]);
         taken += take[t];
     }
     /* Faces in cells of a coarse grid certified embedded as a patch need no search of their own
@@ -751,10 +752,14 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         uint8_t *bad = isect_alloc(m, 1);
         if (bad && patches_mark(V, F, shell, take, m, stars, threads, bad) == 0) {
             taken = 0;
-            for (int64_t t = 0; t < m; t++) {
-                take[t] = take[t] && bad[t];
-                taken += take[t];
+            if (!take) {
+                take = bad;       /* every face was taken: those of the cells that failed (read, not written) */
+                bad = NULL;
             }
+            for (int64_t t = 0; bad && t < m; t++)
+                take[t] = take[t] && bad[t];
+            for (int64_t t = 0; t < m; t++)
+                taken += take[t];
         }
         free(bad);
     }

@@ -87,6 +87,9 @@
 /* Faces per block of the parallel face passes, vertices per block of the vertex passes. */
 #define FACE_BLOCK 8192
 #define VERTEX_BLOCK 4096
+/* Incidences up to which the faces' other corners are kept with them (at most 512 KiB: a part of
+ * up to about 20k faces). */
+#define XY_MOST ((int64_t)1 << 16)
 /* Up to this degree a vertex's cycle is matched pairwise; above, through a sorted copy. */
 #define SMALL_DEGREE 16
 
@@ -110,7 +113,7 @@ static void file_range(void *ctx, int64_t range)
     Stars *s = w->s;
     const int64_t *F = s->F;
     int64_t lo = s->n * range / w->ranges, hi = s->n * (range + 1) / w->ranges, m = s->m;
-    int64_t *next = s->begin + 1;
+    uint32_t *next = s->begin + 1;
     if (!w->fill) {
         for (int64_t i = 0; i < 3 * m; i++)
             if (F[i] >= lo && F[i] < hi)
@@ -135,17 +138,21 @@ static void file_range(void *ctx, int64_t range)
 static int build_incidences(Stars *s, int threads)
 {
     int64_t n = s->n, m = s->m;
-    s->begin = isect_alloc(sizeof(int64_t) * (n + 2), 1);
+    s->begin = isect_alloc(sizeof(uint32_t) * (n + 2), 1);
     s->ring = isect_alloc(sizeof(uint32_t) * 3 * m, 0);
     s->flag = calloc(n ? n : 1, 1);
     if (!s->begin || !s->ring || !s->flag)
         return -1;
-    s->xy = n < ((int64_t)1 << 32) ? isect_alloc(sizeof(uint64_t) * 3 * m, 0) : NULL;
+    /* The corners kept with the incidences spare reads of the faces (a few percent of the search on
+     * a small part), but are 24 bytes a face more: on a large mesh, new memory that a fresh process
+     * pays for in page faults (on the 1.2M torus, 20-100 ms of the kernel clearing pages against a
+     * few ms of reads).  Kept on small meshes only (a batch's worker reuses that memory file after file). */
+    s->xy = 3 * m <= XY_MOST && n < ((int64_t)1 << 32) ? malloc(sizeof(uint64_t) * 3 * m) : NULL;
     Filing w = {s, threads < 1 ? 1 : threads, 0};
     parallel_blocks(threads, w.ranges, file_range, &w);
     for (int64_t v = 0, total = 0; v <= n; v++) {
         int64_t c = s->begin[v];
-        s->begin[v] = total;
+        s->begin[v] = (uint32_t)total;
         total += c;
     }
     w.fill = 1;
@@ -165,13 +172,13 @@ typedef struct {
     int64_t *next;
     uint8_t *seen, *above;
     uint32_t *ordered;
-    Keyed *sorted;
+    Keyed *sorted, *spare;    /* above SMALL_DEGREE: the link's far corners sorted, and the sort's scratch */
 } Scratch;
 
 static void scratch_free(Scratch *sc)
 {
     free(sc->x), free(sc->y), free(sc->link), free(sc->next), free(sc->seen), free(sc->above), free(sc->ordered),
-        free(sc->sorted);
+        free(sc->sorted), free(sc->spare);
 }
 
 static int scratch_init(Scratch *sc, int64_t degree)
@@ -186,19 +193,18 @@ static int scratch_init(Scratch *sc, int64_t degree)
     sc->above = malloc(k);
     sc->ordered = malloc(sizeof(uint32_t) * k);
     sc->sorted = degree > SMALL_DEGREE ? malloc(sizeof(Keyed) * k) : NULL;
+    sc->spare = degree > SMALL_DEGREE ? malloc(sizeof(Keyed) * k) : NULL;
     if (!sc->x || !sc->y || !sc->link || !sc->next || !sc->seen || !sc->above || !sc->ordered
-        || (degree > SMALL_DEGREE && !sc->sorted)) {
+        || (degree > SMALL_DEGREE && (!sc->sorted || !sc->spare))) {
         scratch_free(sc);
         return -1;
     }
     return 0;
 }
 
-static int compare_keyed(const void *a, const void *b)
-{
-    int64_t x = ((const Keyed *)a)->x, y = ((const Keyed *)b)->x;
-    return (x > y) - (x < y);
-}
+/* Keyed items sorted by x (a run merge sort, isect.h: qsort's call per comparison was a tenth of
+ * the search on a part of a few thousand faces with fans of high degree). */
+RUN_MERGE_SORT(sort_keyed, Keyed, x)
 
 /* ---- cycles -------------------------------------------------------------------------------- */
 
@@ -212,10 +218,6 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
     for (int64_t i = 0; s->xy && i < k; i++) {
         sc->x[i] = (int64_t)(s->xy[b + i] & 0xFFFFFFFF);
         sc->y[i] = (int64_t)(s->xy[b + i] >> 32);
-        /* the link's coordinates, when a certificate reads them once the cycle is found (around a
-         * vertex of a subdivided mesh they lie anywhere in memory) */
-        if (prefetch)
-            __builtin_prefetch(s->V + 3 * sc->x[i]);
     }
     for (int64_t i = 0; !s->xy && i < k; i++) {
         uint32_t r = s->ring[b + i];
@@ -224,6 +226,10 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
         sc->x[i] = F[3 * f + (c == 2 ? 0 : c + 1)];
         sc->y[i] = F[3 * f + (c == 0 ? 2 : c - 1)];
     }
+    /* the link's coordinates, when a certificate reads them once the cycle is found (around a
+     * vertex of a subdivided mesh they lie anywhere in memory) */
+    for (int64_t i = 0; prefetch && i < k; i++)
+        __builtin_prefetch(s->V + 3 * sc->x[i]);
     if (k <= SMALL_DEGREE) {
         for (int64_t i = 0; i < k; i++) {
             int64_t match = -1;
@@ -242,22 +248,22 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
             sc->sorted[i].x = sc->x[i];
             sc->sorted[i].index = i;
         }
-        qsort(sc->sorted, k, sizeof(Keyed), compare_keyed);
+        const Keyed *sorted = sort_keyed(sc->sorted, sc->spare, k);
         for (int64_t i = 1; i < k; i++)
-            if (sc->sorted[i].x == sc->sorted[i - 1].x)
+            if (sorted[i].x == sorted[i - 1].x)
                 return 0;
         for (int64_t i = 0; i < k; i++) {
             int64_t lo = 0, hi = k;
             while (lo < hi) {
                 int64_t mid = lo + (hi - lo) / 2;
-                if (sc->sorted[mid].x < sc->y[i])
+                if (sorted[mid].x < sc->y[i])
                     lo = mid + 1;
                 else
                     hi = mid;
             }
-            if (lo == k || sc->sorted[lo].x != sc->y[i])
+            if (lo == k || sorted[lo].x != sc->y[i])
                 return 0;
-            sc->next[i] = sc->sorted[lo].index;
+            sc->next[i] = sorted[lo].index;
         }
     }
     /* k steps through distinct faces back to the first: one cycle through all of them */
@@ -410,7 +416,7 @@ static void centre_block(void *ctx, int worker, int64_t block)
      * workers may share a cache line: summing into them face by face made both cores wait on it) */
     double local[SUMS] = {0};
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        int64_t s = w->shell[t];
+        int64_t s = shell_at(w->shell, t);
         if (!w->wanted[s])
             continue;
         if (s != current) {
@@ -466,7 +472,7 @@ static void sign_block(void *ctx, int worker, int64_t block)
     int64_t current = -1;
     int8_t seen = SIGN_NONE;
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        int64_t s = w->shell[t];
+        int64_t s = shell_at(w->shell, t);
         if (!w->wanted[s])
             continue;
         if (s != current) {
@@ -503,7 +509,7 @@ static int64_t star_shell(const Stars *s, const int64_t *shell, int64_t v)
 static void fail_shells(ShellWork *w, int64_t v)
 {
     for (int64_t i = w->s->begin[v]; i < w->s->begin[v + 1]; i++)
-        __atomic_store_n(&w->failed[w->shell[w->s->ring[i] >> 2]], 1, __ATOMIC_RELAXED);
+        __atomic_store_n(&w->failed[shell_at(w->shell, w->s->ring[i] >> 2)], 1, __ATOMIC_RELAXED);
 }
 
 /* Condition (b) for the vertices of star-shaped shells; the star certificate for the others. */
@@ -608,8 +614,8 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     for (int64_t sh = 0; sh < n_shells; sh++)
         w.origin[sh] = -1;
     for (int64_t t = 0, found = 0; t < s->m && found < n_shells; t++)
-        if (w.origin[shell[t]] < 0) {
-            w.origin[shell[t]] = s->F[3 * t];
+        if (w.origin[shell_at(shell, t)] < 0) {
+            w.origin[shell_at(shell, t)] = s->F[3 * t];
             found++;
         }
     int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
@@ -702,7 +708,7 @@ static void corners_block(void *ctx, int worker, int64_t block)
     Scratch *sc = &w->scratch[worker];
     int64_t end = (block + 1) * FACE_BLOCK < s->m ? (block + 1) * FACE_BLOCK : s->m, certified = 0;
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
-        if (!w->take[t])
+        if (w->take && !w->take[t])
             continue;
         for (int c = 0; c < 3; c++) {
             int64_t v = s->F[3 * t + c];
