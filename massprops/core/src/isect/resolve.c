@@ -42,8 +42,8 @@ static PyObject *cut_tuple(const int8_t *kind, int64_t p, const int8_t *status, 
 }
 
 typedef struct {
-    int64_t *pbegin, *plist, *starts, *label, *qface, *front, *net, *cells, *pieces, *out;
-    int64_t *cell_of;
+    int64_t *pbegin, *plist, *starts, *label, *qface, *front, *net, *cells, *pieces, *cell_of;
+    int64_t *out;             /* the kept uncut faces: the caller's (a bytes object of 3 m int64, made with the GIL) */
     double *qxy, *rows;
     int8_t *owned, *qstatus, *side;
     uint8_t *cut, *outward;
@@ -52,7 +52,7 @@ typedef struct {
 static void work_free(Work *w)
 {
     free(w->pbegin), free(w->plist), free(w->starts), free(w->label), free(w->qface), free(w->front);
-    free(w->net), free(w->cells), free(w->pieces), free(w->out), free(w->cell_of), free(w->qxy), free(w->rows);
+    free(w->net), free(w->cells), free(w->pieces), free(w->cell_of), free(w->qxy), free(w->rows);
     free(w->owned), free(w->qstatus), free(w->side), free(w->cut), free(w->outward);
 }
 
@@ -183,8 +183,7 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
     *n_out = 0;
     if (roots) {
         w->side = calloc(m ? m : 1, 1);
-        w->out = malloc((m ? m : 1) * 3 * sizeof(int64_t));
-        if (!w->side || !w->out)
+        if (!w->side)
             return -1;
         for (int64_t i = cells; i < k; i++) {
             int64_t front = w->front[i], behind = front + w->net[i];
@@ -246,13 +245,16 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
         return NULL;
     }
     int8_t *kind = malloc(p ? p : 1), *status = malloc(m ? m : 1), *drop = malloc(m ? m : 1);
+    /* the kept uncut faces go straight into the bytes returned (at most every face; cut to size after) */
+    PyObject *out = PyBytes_FromStringAndSize(NULL, 24 * m);
     Arranged cut;
     memset(&cut, 0, sizeof(cut));
     Work w;
     memset(&w, 0, sizeof(w));
+    w.out = out ? (int64_t *)PyBytes_AS_STRING(out) : NULL;
     int code = -1, negative = 0;
     int64_t n_out = 0, n_pieces = 0, n_rows = 0;
-    if (kind && status && drop) {
+    if (kind && status && drop && out) {
         Py_BEGIN_ALLOW_THREADS
         code = arrange_cut(V, F, n, m, pairs, p, available, kind, status, drop, &cut);
         if (code == 0)
@@ -260,14 +262,16 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
                                 &n_rows, &negative);
         Py_END_ALLOW_THREADS
     }
-    if (code < 0)
-        PyErr_NoMemory();
-    else if (code == 0)
+    if (code < 0) {
+        if (!PyErr_Occurred())
+            PyErr_NoMemory();
+        Py_XDECREF(out);
+    } else if (code == 0) {
+        Py_DECREF(out);
         result = cut_tuple(kind, p, status, drop, m, &cut);
-    else {
+    } else if (n_out == m || _PyBytes_Resize(&out, 24 * n_out) == 0) {
         PyObject *pieces = PyByteArray_FromStringAndSize((const char *)w.pieces, 24 * n_pieces);
-        result = Py_BuildValue("NNNO", bytes_of(w.out, 24 * n_out), pieces, bytes_of(w.rows, 48 * n_rows),
-                               negative ? Py_True : Py_False);
+        result = Py_BuildValue("NNNO", out, pieces, bytes_of(w.rows, 48 * n_rows), negative ? Py_True : Py_False);
     }
     free(kind), free(status), free(drop);
     arranged_free(&cut);
