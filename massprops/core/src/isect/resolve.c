@@ -228,13 +228,16 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
     const double *V = b[0].buf;
     const int64_t *F = b[1].buf, *weight = b[2].buf, *pairs = b[3].buf;
     int64_t n = b[0].len / 24, m = b[1].len / 24, p = b[3].len / 16;
-    const char *bad = b[2].len / 8 != m ? "weights need one entry per face" : NULL;
-    for (int64_t i = 0; i < 3 * m && !bad; i++)
-        if (F[i] < 0 || F[i] >= n)
-            bad = "a face names a vertex that does not exist";
-    for (int64_t k = 0; k < 2 * p && !bad; k++)
-        if (pairs[k] < 0 || pairs[k] >= m)
-            bad = "a pair names a face that does not exist";
+    /* (every index in range: as unsigned, a negative one is above the count; one pass without branches) */
+    uint64_t out_of_range = 0;
+    for (int64_t i = 0; i < 3 * m; i++)
+        out_of_range |= (uint64_t)F[i] >= (uint64_t)n;
+    uint64_t unpaired = 0;
+    for (int64_t k = 0; k < 2 * p; k++)
+        unpaired |= (uint64_t)pairs[k] >= (uint64_t)m;
+    const char *bad = b[2].len / 8 != m ? "weights need one entry per face"
+                      : out_of_range ? "a face names a vertex that does not exist"
+                      : unpaired ? "a pair names a face that does not exist" : NULL;
     if (!bad && n > ((int64_t)1 << 31))
         bad = "the vertex count is out of range";
     PyObject *result = NULL;
