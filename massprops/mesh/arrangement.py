@@ -779,9 +779,9 @@ def _all_at_once(geometry, faces, weights, pairs, available):
     """The arrangement in one compiled call (isect/resolve.c: the steps of :func:`arrange`, in the same order,
     with the same answer bit for bit) when the compiled core settles every face and piece; else its cut (as
     :class:`_Compiled` takes it), for the steps in :func:`arrange` to go on from, or None (make the cut there).
-    Each compiled stage takes up to ``available`` threads, as many as it has blocks of work for (a small
-    arrangement runs on one, whatever the soup's size)."""
-    done = _extension().resolve(geometry.vertices, faces, weights, pairs, available)
+    The threads are the steps' own (``available`` above ``_PARALLEL_ABOVE`` faces, or rays times 64)."""
+    done = _extension().resolve(geometry.vertices, faces, weights, pairs,
+                                available if faces.shape[0] > _PARALLEL_ABOVE else 1, available, _PARALLEL_ABOVE)
     if len(done) != 4:
         return done
     out, pieces, rows, negative = done

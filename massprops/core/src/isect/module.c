@@ -685,7 +685,7 @@ static PyMethodDef methods[] = {
      "cut's rounded again from their exact values where their bound exceeds an ulp, distinct in lexicographic\n"
      "order; the triangles' new corners renumbered to n + their row (assemble.c)"},
     {"resolve", py_resolve, METH_VARARGS,
-     "resolve(vertices, faces, weights, pairs, threads) -> (faces, pieces\n"
+     "resolve(vertices, faces, weights, pairs, threads, available threads, parallel above) -> (faces, pieces\n"
      "(bytearray), corner rows (r, 6), negative) when the compiled core settles every face and piece, else the\n"
      "ten outputs of arrange(): the arrangement's steps in one call (resolve.c)"},
     {NULL, NULL, 0, NULL},

@@ -3,10 +3,11 @@
  * numbers of the cells and patches (label_queries), the kept cells fanned and the kept patches' faces
  * (assemble.c), and the kept new corners rounded, made distinct and renumbered (kept_corners).  The same
  * functions, called in the same order with the same arguments as the Python steps they replace, so the
- * answer is the same bit for bit; only the arrays between the steps no longer cross into numpy.  Each stage
- * may use up to `available` threads, as many as it has blocks of work for (the cut: 32 faces a block; the
- * ray counts: 256 queries; the exact rounding: 64 corners): a small arrangement runs on one thread, a large
- * one on several whatever the soup's size; no answer depends on the thread count.
+ * answer is the same bit for bit; only the arrays between the steps no longer cross into numpy.  The
+ * threads are the steps' own: `threads` for the cut and the exact rounding, `available` for the ray counts
+ * when there are more than `parallel_above` / 64 of them.  (Taking threads by the work of a stage instead,
+ * whatever the soup's size, made a resolution of 2,560 faces take 2-4 times as long in some runs on a busy
+ * machine of two cores: a worker waiting for a core held up the call.)  No answer depends on them.
  *
  * When the cut hands a face back, or a piece's count is not settled, the exact path in Python is needed:
  * then the cut's outputs are returned as arrange() gives them, and Python goes on from there.
@@ -60,7 +61,7 @@ static void work_free(Work *w)
  * pieces/n_pieces (triangles), rows/n_rows and *negative hold the arrangement. */
 static int assemble_all(const double *V, const int64_t *F, const int64_t *weight, int64_t n, int64_t m,
                         const int64_t *pairs, int64_t p, const int8_t *kind, const int8_t *status,
-                        const Arranged *a, int available, Work *w,
+                        const Arranged *a, int threads, int available, int64_t parallel_above, Work *w,
                         int64_t *n_out, int64_t *n_pieces, int64_t *n_rows, int *negative)
 {
     for (int64_t t = 0; t < m; t++)
@@ -144,7 +145,8 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
             q++;
         }
     if (k) {
-        if (label_queries(V, F, weight, m, w->qface, w->qxy, w->pbegin, w->plist, k, available, w->front,
+        int label_threads = k * 64 > parallel_above ? available : 1;
+        if (label_queries(V, F, weight, m, w->qface, w->qxy, w->pbegin, w->plist, k, label_threads, w->front,
                           w->net, w->owned, w->qstatus) < 0)
             return -1;
         for (int64_t i = 0; i < k; i++)
@@ -199,7 +201,7 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
     double none = 0.0;
     *n_rows = kept_corners(V, F, n, w->pieces, triangles, (const double *)a->points.data,
                            (const double *)a->errors.data, (const int64_t *)a->defs.data, qc, &none, &none, 0,
-                           available, w->rows);
+                           threads, w->rows);
     return *n_rows < 0 ? -1 : 1;
 }
 
@@ -207,8 +209,9 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
 {
     PyObject *o[4];
     Py_buffer b[4];
-    int available;
-    if (!PyArg_ParseTuple(args, "OOOOi", o, o + 1, o + 2, o + 3, &available))
+    int threads, available;
+    long long parallel_above;
+    if (!PyArg_ParseTuple(args, "OOOOiiL", o, o + 1, o + 2, o + 3, &threads, &available, &parallel_above))
         return NULL;
     const Py_ssize_t sizes[4] = {24, 24, 8, 16};
     for (int i = 0; i < 4; i++) {
@@ -224,6 +227,7 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
             return NULL;
         }
     }
+    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
     available = available < 1 ? 1 : (available > MAX_THREADS ? MAX_THREADS : available);
     const double *V = b[0].buf;
     const int64_t *F = b[1].buf, *weight = b[2].buf, *pairs = b[3].buf;
@@ -259,10 +263,10 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
     int64_t n_out = 0, n_pieces = 0, n_rows = 0;
     if (kind && status && drop && out) {
         Py_BEGIN_ALLOW_THREADS
-        code = arrange_cut(V, F, n, m, pairs, p, available, kind, status, drop, &cut);
+        code = arrange_cut(V, F, n, m, pairs, p, threads, kind, status, drop, &cut);
         if (code == 0)
-            code = assemble_all(V, F, weight, n, m, pairs, p, kind, status, &cut, available, &w, &n_out, &n_pieces,
-                                &n_rows, &negative);
+            code = assemble_all(V, F, weight, n, m, pairs, p, kind, status, &cut, threads, available,
+                                (int64_t)parallel_above, &w, &n_out, &n_pieces, &n_rows, &negative);
         Py_END_ALLOW_THREADS
     }
     if (code < 0) {
