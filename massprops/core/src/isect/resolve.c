@@ -64,35 +64,41 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
                         const Arranged *a, int threads, int available, int64_t parallel_above, Work *w,
                         int64_t *n_out, int64_t *n_pieces, int64_t *n_rows, int *negative)
 {
+    int back = 0;                      /* (one pass without branches) */
     for (int64_t t = 0; t < m; t++)
-        if (status[t] == 2)
-            return 0;
+        back |= status[t] == 2;
+    if (back)
+        return 0;
     int64_t cells = (int64_t)(a->face.size / sizeof(int64_t));
     const int64_t *face = (const int64_t *)a->face.data, *count = (const int64_t *)a->count.data;
-    /* the coplanar partners of each face, in the order of the pairs (as the Python dict of lists) */
-    int64_t *per = calloc(m + 1, sizeof(int64_t));
-    if (!per)
-        return -1;
+    /* the coplanar partners of each face, in the order of the pairs (as the Python dict of lists); none (NULL)
+     * when no pair is coplanar, as a rule */
     int64_t n_partners = 0;
     for (int64_t k = 0; k < p; k++)
-        if (kind[k] == 2)
-            per[pairs[2 * k] + 1]++, per[pairs[2 * k + 1] + 1]++, n_partners += 2;
-    for (int64_t t = 0; t < m; t++)
-        per[t + 1] += per[t];
-    int64_t *plist_face = malloc((n_partners ? n_partners : 1) * sizeof(int64_t));
-    int64_t *fill = malloc((m ? m : 1) * sizeof(int64_t));
-    if (!plist_face || !fill) {
-        free(per), free(plist_face), free(fill);
-        return -1;
-    }
-    memcpy(fill, per, m * sizeof(int64_t));
-    for (int64_t k = 0; k < p; k++)
-        if (kind[k] == 2) {
-            int64_t t = pairs[2 * k], u = pairs[2 * k + 1];
-            plist_face[fill[t]++] = u;
-            plist_face[fill[u]++] = t;
+        n_partners += 2 * (kind[k] == 2);
+    int64_t *per = NULL, *plist_face = NULL;
+    if (n_partners) {
+        per = calloc(m + 1, sizeof(int64_t));
+        plist_face = malloc(n_partners * sizeof(int64_t));
+        int64_t *fill = malloc((m ? m : 1) * sizeof(int64_t));
+        if (!per || !plist_face || !fill) {
+            free(per), free(plist_face), free(fill);
+            return -1;
         }
-    free(fill);
+        for (int64_t k = 0; k < p; k++)
+            if (kind[k] == 2)
+                per[pairs[2 * k] + 1]++, per[pairs[2 * k + 1] + 1]++;
+        for (int64_t t = 0; t < m; t++)
+            per[t + 1] += per[t];
+        memcpy(fill, per, m * sizeof(int64_t));
+        for (int64_t k = 0; k < p; k++)
+            if (kind[k] == 2) {
+                int64_t t = pairs[2 * k], u = pairs[2 * k + 1];
+                plist_face[fill[t]++] = u;
+                plist_face[fill[u]++] = t;
+            }
+        free(fill);
+    }
     /* the patches of uncut faces, and their roots (the uncut faces labelled by themselves) */
     w->cut = malloc(m ? m : 1);
     w->label = malloc((m ? m : 1) * sizeof(int64_t));
@@ -119,7 +125,7 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
     w->owned = malloc(k ? k : 1);
     w->qstatus = malloc(k ? k : 1);
     int64_t listed = 0;
-    for (int64_t c = 0; c < cells; c++)
+    for (int64_t c = 0; c < cells && per; c++)
         listed += per[face[c] + 1] - per[face[c]];
     w->plist = malloc((listed ? listed : 1) * sizeof(int64_t));
     if (!w->qface || !w->qxy || !w->pbegin || !w->front || !w->net || !w->owned || !w->qstatus || !w->plist) {
@@ -129,10 +135,11 @@ static int assemble_all(const double *V, const int64_t *F, const int64_t *weight
     const double *inner = (const double *)a->inner.data;
     w->pbegin[0] = 0;
     for (int64_t c = 0; c < cells; c++) {
-        int64_t t = face[c], mine = per[t + 1] - per[t];
+        int64_t t = face[c], mine = per ? per[t + 1] - per[t] : 0;
         w->qface[c] = t;
         w->qxy[2 * c] = inner[12 * c], w->qxy[2 * c + 1] = inner[12 * c + 1];
-        memcpy(w->plist + w->pbegin[c], plist_face + per[t], mine * sizeof(int64_t));
+        if (mine)
+            memcpy(w->plist + w->pbegin[c], plist_face + per[t], mine * sizeof(int64_t));
         w->pbegin[c + 1] = w->pbegin[c] + mine;
     }
     free(per), free(plist_face);
