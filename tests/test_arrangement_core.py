@@ -51,8 +51,8 @@ def handing_back(seed):
     path (as it does with those whose signs it cannot settle): the two paths must fit together."""
     original = arrangement._Compiled.__init__
 
-    def partly(self, geometry, faces, pairs):
-        original(self, geometry, faces, pairs)
+    def partly(self, geometry, faces, pairs, cut=None, available=None):
+        original(self, geometry, faces, pairs, cut, available)
         cut = np.flatnonzero(self.status == 1)
         back = cut[np.random.default_rng(seed).random(cut.size) < 0.5]
         if back.size == 0:
@@ -80,6 +80,8 @@ def handing_back(seed):
                 done[k] = False
 
     with pytest.MonkeyPatch.context() as patch:
+        # (the one compiled call that does every step hands nothing back: the steps are taken one by one)
+        patch.setattr(arrangement, "_all_at_once", lambda *args: None)
         patch.setattr(arrangement._Compiled, "__init__", partly)
         patch.setattr(arrangement._Compiled, "label", some)
         yield
@@ -176,6 +178,57 @@ def test_the_core_cuts_generic_crossings_itself():
     pairs, _ = geometry.crossing_pairs(mesh.faces)
     status = arrangement._Compiled(geometry, mesh.faces, pairs).status
     assert np.count_nonzero(status == 1) > 50 and np.count_nonzero(status == 2) == 0
+
+
+@contextlib.contextmanager
+def one_call_and_steps():
+    """Every arrangement inside runs in the one compiled call (isect/resolve.c) and step by step (the call
+    turned off): the faces, pieces, corners, roundings and negative windings must be the same bit for bit.
+    Yields how many took the one call."""
+    original, at_once = arrangement.arrange, arrangement._all_at_once
+    tally = {"one call": 0}
+
+    def both(geometry, faces, weights, pairs):
+        ours = original(geometry, faces, weights, pairs)
+        tally["one call"] += isinstance(at_once(geometry, np.ascontiguousarray(faces, dtype=np.int64),
+                                                np.ascontiguousarray(weights, dtype=np.int64),
+                                                np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2), 1),
+                                        arrangement.Arrangement)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(arrangement, "_all_at_once", lambda *args: None)
+            steps = original(geometry, faces, weights, pairs)
+        assert ours.negative == steps.negative
+        for name in ("faces", "pieces", "points", "rounding"):
+            a, b = getattr(ours, name), getattr(steps, name)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
+        return ours
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(arrangement, "arrange", both)
+        yield tally
+
+
+def _dented_sphere(level):
+    sphere = solids.icosphere(level, 1.0)
+    vertices = sphere.vertices.copy()
+    vertices[int(np.argmax(vertices[:, 2]))] = [0.0, 0.0, -1.5]
+    return type(sphere)(vertices, sphere.faces)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: _dented_sphere(2),
+    lambda: _spheres([1, 2], [(0, 0, 0), (0.5, 0.3, 0.2)], level=2),
+    lambda: _spheres([3, 4, 5], [(0, 0, 0), (0.4, 0, 0), (0, 0.4, 0)], level=1),
+    # coplanar overlaps (partners), a box written twice (weights), a negative box
+    lambda: soup(_turned_soup([((0, 0, 0), (130, 65, 65), 1), ((65, 0, 0), (195, 130, 65), 1),
+                               ((0, 0, 0), (130, 65, 65), 1), ((0, 0, 65), (65, 65, 130), 1)], _ROTATIONS[0])),
+    lambda: soup(_turned_soup([((0, 0, 0), (195, 195, 195), 1), ((65, 65, 65), (130, 130, 260), -1),
+                               ((65, 0, 0), (130, 65, 65), 1)], _ROTATIONS[1])),
+])
+def test_the_one_compiled_call_is_the_steps_bit_for_bit(make):
+    with one_call_and_steps() as tally:
+        result = mass_properties(make())
+    assert result.properties.volume > 0 and tally["one call"] >= 1
 
 
 def _swept_reference(geometry, vertices, arranged):

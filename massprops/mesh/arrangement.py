@@ -591,14 +591,15 @@ class _Compiled:
         How each new corner is defined (kind, then vertices or faces, then the projection's axes).
     """
 
-    def __init__(self, geometry, faces, pairs):
+    def __init__(self, geometry, faces, pairs, cut=None, available=None):
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
         # (the threads the core may use, asked once: each stage takes them above its size)
-        self.available = thread_count()
+        self.available = thread_count() if available is None else available
         self.threads = self.available if faces.shape[0] > _PARALLEL_ABOVE else 1
-        kind, status, drop, face, count, corners, inner, points, rounding, definitions = _extension().arrange(
-            geometry.vertices, faces, pairs, self.threads)
+        if cut is None:
+            cut = _extension().arrange(geometry.vertices, faces, pairs, self.threads)
+        kind, status, drop, face, count, corners, inner, points, rounding, definitions = cut
         self.definitions = np.frombuffer(definitions, dtype=np.int64).reshape(-1, 7)
         self.kind = np.frombuffer(kind, dtype=np.int8)
         self.status = np.frombuffer(status, dtype=np.int8)
@@ -774,6 +775,22 @@ def _patches(faces, cut, n):
     return np.frombuffer(labels, dtype=np.int64), np.frombuffer(roots, dtype=np.int64)
 
 
+def _all_at_once(geometry, faces, weights, pairs, available):
+    """The arrangement in one compiled call (isect/resolve.c: the steps of :func:`arrange`, in the same order,
+    with the same answer bit for bit) when the compiled core settles every face and piece; else its cut (as
+    :class:`_Compiled` takes it), for the steps in :func:`arrange` to go on from, or None (make the cut there).
+    The threads are the steps' own (``available`` above ``_PARALLEL_ABOVE`` faces, or rays times 64)."""
+    done = _extension().resolve(geometry.vertices, faces, weights, pairs,
+                                available if faces.shape[0] > _PARALLEL_ABOVE else 1, available, _PARALLEL_ABOVE)
+    if len(done) != 4:
+        return done
+    out, pieces, rows, negative = done
+    rows = np.frombuffer(rows, dtype=np.float64).reshape(-1, 6)
+    return Arrangement(np.frombuffer(out, dtype=np.int64).reshape(-1, 3),
+                       np.frombuffer(pieces, dtype=np.int64).reshape(-1, 3), rows[:, :3].copy(), rows[:, 3:].copy(),
+                       negative)
+
+
 def arrange(geometry, faces, weights, pairs, *, compiled=True):
     """The faces and cut pieces that bound ``{w > 0}`` (see the module docstring).
 
@@ -797,10 +814,18 @@ def arrange(geometry, faces, weights, pairs, *, compiled=True):
     Arrangement
     """
     faces = np.ascontiguousarray(faces, dtype=np.int64)
-    soup = _Soup(geometry, faces, weights)
     m = faces.shape[0]
-    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    compiled = _Compiled(geometry, faces, pairs) if compiled else None
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if compiled:
+        available = thread_count()
+        weights = np.ascontiguousarray(weights, dtype=np.int64)
+        done = _all_at_once(geometry, faces, weights, pairs, available)
+        if isinstance(done, Arrangement):
+            return done
+        compiled = _Compiled(geometry, faces, pairs, done, available)
+    else:
+        compiled = None
+    soup = _Soup(geometry, faces, weights)
     back = np.ones(m, dtype=bool) if compiled is None else compiled.status == 2
     segments = {}
     partners = {}

@@ -1375,6 +1375,8 @@ int arrange_cut(const double *V, const int64_t *F, int64_t n, int64_t m, const i
             faces[n_faces++] = t;
     }
     blocks = (n_faces + FACES_PER_BLOCK - 1) / FACES_PER_BLOCK;
+    if (threads > blocks)
+        threads = blocks > 1 ? (int)blocks : 1;          /* no scratch for workers that would have no block */
     job.faces = faces;
     job.n_faces = n_faces;
     job.outs = calloc(blocks ? blocks : 1, sizeof(Out));

@@ -11,6 +11,7 @@
  *   patches(F, cut)                  the arrangement's patches of uncut faces (arrange.c)
  *   swept(V, Q, R, power, ref, F)    the new corners in mesh units and their swept volume's terms (swept.c)
  *   fans, patch_faces, kept_corners: the kept pieces put together (assemble.c)
+ *   resolve(V, F, weights, pairs, ...) the arrangement in one call, when the compiled core settles it (resolve.c)
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -664,6 +665,8 @@ static PyObject *py_kept_corners(PyObject *self, PyObject *args)
     return out;
 }
 
+PyObject *py_resolve(PyObject *self, PyObject *args);   /* resolve.c */
+
 static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
@@ -701,6 +704,10 @@ static PyMethodDef methods[] = {
      "their rounding, threads) -> float64 rows (r, 6) (bytes): the new corners the triangles use, the compiled\n"
      "cut's rounded again from their exact values where their bound exceeds an ulp, distinct in lexicographic\n"
      "order; the triangles' new corners renumbered to n + their row (assemble.c)"},
+    {"resolve", py_resolve, METH_VARARGS,
+     "resolve(vertices, faces, weights, pairs, threads, available threads, parallel above) -> (faces, pieces\n"
+     "(bytearray), corner rows (r, 6), negative) when the compiled core settles every face and piece, else the\n"
+     "ten outputs of arrange(): the arrangement's steps in one call (resolve.c)"},
     {NULL, NULL, 0, NULL},
 };
 
