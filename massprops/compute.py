@@ -229,8 +229,8 @@ def _closed(mesh, path, warnings):
         welded = weld_noise(mesh, path=path, refusal=refusal)
         mesh = welded.mesh
         checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
-    sizes = np.bincount(labels) if checks.shells > 1 else np.array([mesh.faces.shape[0]])
-    if two_faces_an_edge and not np.any(sizes == 2):
+    if two_faces_an_edge and not (np.any(np.bincount(labels) == 2) if checks.shells > 1
+                                  else mesh.faces.shape[0] == 2):
         return mesh, checks, labels, welded, {"duplicate_shells": 0, "duplicate_faces": 0}, None
     # Faces may repeat (a body written twice, a face and its reverse): one face each, counted as often as it repeats.
     reduced, repeated, repeat_warnings, weights = without_repeated_faces(mesh, path=path)
