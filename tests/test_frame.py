@@ -126,3 +126,18 @@ def test_no_vertices_and_refusals():
         frame_of(np.array([[0.0, 0.0, 0.0], [1e200, 1e-200, 1e-200]]))
     # just inside the limit: integrated, not refused (the compiled test only hands the near cases to Python)
     frame_of(np.array([[0.0, 0.0, 0.0], [1.0, 2.0 ** -440, 2.0 ** -440]]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(vertex=st.integers(0, 7), axis=st.integers(0, 2), bad=st.sampled_from([math.nan, math.inf, -math.inf]),
+       fortran=st.booleans())
+def test_a_used_vertex_that_is_not_finite_is_refused_wherever_it_is(vertex, axis, bad, fortran):
+    from massprops import mass_properties
+    from massprops.validation import solids
+    box = solids.box((1.0, 2.0, 3.0))
+    vertices = np.array(box.vertices, dtype=np.float64)
+    vertices[vertex, axis] = bad
+    if fortran:                                     # a strided view, not a contiguous array: checked the same
+        vertices = np.asfortranarray(vertices)
+    with pytest.raises(MeshGeometryError, match=r"1 vertices have NaN or infinite coordinates \(first: vertex"):
+        mass_properties(vertices, box.faces)

@@ -17,7 +17,8 @@ from dataclasses import field
 import numpy as np
 
 from ..model.records import record
-from ..core import distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core import _core, distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core.arrays import as_points
 from ..core.topology import edge_shells
 from ..model.errors import MeshGeometryError, OpenMeshError, WindingError
 from ..model.frames import matvec
@@ -164,7 +165,7 @@ def check_shells(mesh, path=None):
     except IndexError:
         raise MeshGeometryError("a face refers to a vertex that does not exist", path=path,
                                 fix="re-export the mesh") from None
-    if not np.isfinite(vertices).all():
+    if not _core.all_finite(as_points(vertices)):          # one compiled pass, no array of flags
         _refuse_non_finite(vertices, faces, path)
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)

@@ -684,6 +684,18 @@ static PyObject *core_largest_squared_distance(PyObject *self, PyObject *args)
     return PyFloat_FromDouble(largest);
 }
 
+static PyObject *core_all_finite(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    int finite;
+    if (!PyArg_ParseTuple(args, "O", &object) || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    finite = all_finite(view.buf, view.len / 8);
+    PyBuffer_Release(&view);
+    return PyBool_FromLong(finite);
+}
+
 static PyObject *core_frame(PyObject *self, PyObject *args)
 {
     PyObject *object;
@@ -734,6 +746,7 @@ static PyMethodDef methods[] = {
      "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
     {"largest_squared_distance", core_largest_squared_distance, METH_VARARGS,
      "largest_squared_distance(vertices, centre) -> max of (dx*dx + dz*dz) + dy*dy over the vertices"},
+    {"all_finite", core_all_finite, METH_VARARGS, "all_finite(vertices) -> whether no coordinate is NaN or infinite"},
     {"frame", core_frame, METH_VARARGS,
      "frame(vertices) -> (low, high, reference, scale_exp, radius, status): frame.py's frame_of (n >= 1)"},
     {"jacobi", core_jacobi, METH_VARARGS,

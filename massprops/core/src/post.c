@@ -209,3 +209,13 @@ int frame_choice(const double *vertices, int64_t n, double low[3], double high[3
         return 2;                            /* near the scaled range's limit: frame.py decides, in Python's logs */
     return 0;
 }
+
+/* Whether every coordinate is finite (no NaN, no infinity): surface.py's check before the edges are trusted. */
+int all_finite(const double *values, int64_t count)
+{
+    int64_t i;
+    int finite = 1;
+    for (i = 0; i < count; i++)
+        finite &= (values[i] - values[i]) == 0.0;      /* x - x is NaN for a NaN or an infinity, else 0 */
+    return finite;
+}
