@@ -13,9 +13,11 @@ from functools import lru_cache
 
 from .model.records import record, replace
 from . import core as _core
-from .model.errors import ArgumentTypeError, MassPropsError, OptionError
+from .model.errors import ArgumentTypeError, MassPropsError, OpenMeshError, OptionError
 from .mesh.arrays import as_mesh, is_path
-from .mesh.surface import TriangleMesh
+from .mesh.surface import TriangleMesh, check_shells
+from .mesh.shells import solid_of
+from .mesh.solid import overlap_warning, swept_volume, widened, without_repeated_faces, without_unused_vertices
 from .model.properties import MassProperties, unit_factor
 from .model.resolution import annotate
 from .result import Result
@@ -168,8 +170,6 @@ def checked_solid(mesh, *, path=None, order=2, repair=False, self_intersection=N
 
 
 def _checked_moments(mesh, *, path, order, repair, self_intersection):
-    from .mesh.solid import without_unused_vertices
-
     mesh = without_unused_vertices(mesh)
     warnings = list(mesh.notes)
     if repair:
@@ -218,9 +218,6 @@ def _closed(mesh, path, warnings):
     when not welded), the repeated-face checks and how many times each face
     counts (None: once each).
     """
-    from .model.errors import OpenMeshError
-    from .mesh.solid import without_repeated_faces
-    from .mesh.surface import check_shells
     welded = None
     try:
         checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
@@ -229,8 +226,8 @@ def _closed(mesh, path, warnings):
         welded = weld_noise(mesh, path=path, refusal=refusal)
         mesh = welded.mesh
         checks, labels, two_faces_an_edge = check_shells(mesh, path=path)
-    sizes = np.bincount(labels) if checks.shells > 1 else np.array([mesh.faces.shape[0]])
-    if two_faces_an_edge and not np.any(sizes == 2):
+    if two_faces_an_edge and not (np.any(np.bincount(labels) == 2) if checks.shells > 1
+                                  else mesh.faces.shape[0] == 2):
         return mesh, checks, labels, welded, {"duplicate_shells": 0, "duplicate_faces": 0}, None
     # Faces may repeat (a body written twice, a face and its reverse): one face each, counted as often as it repeats.
     reduced, repeated, repeat_warnings, weights = without_repeated_faces(mesh, path=path)
@@ -244,18 +241,15 @@ def _closed(mesh, path, warnings):
 
 
 def _overlap(solid, moments):
-    from .mesh.solid import overlap_warning
     return overlap_warning(solid, moments)
 
 
 def _solid(mesh, labels, n_shells, **options):
-    from .mesh.shells import solid_of
     return solid_of(mesh, labels, n_shells, **options)
 
 
 def _widened(moments, solid, welded, order):
     """The moments' bounds widened for rounded union vertices, noise welds and dropped zero-volume shells."""
-    from .mesh.solid import swept_volume, widened
     swept, reach = solid.swept_volume, 0.0
     if welded is not None:
         swept += swept_volume(solid.mesh.vertices, solid.mesh.faces, welded.moved_vertices, welded.moved)

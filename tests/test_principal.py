@@ -116,3 +116,46 @@ def test_moments_and_axes_are_within_their_bounds_of_the_exact_decomposition(par
         projected = result.axes[list(group)] @ exact_span.T @ exact_span
         np.testing.assert_allclose(projected, result.axes[list(group)], atol=1e-9)
     check_conventions(result, tensor)
+
+
+def _davis_kahan(moments, norm_error, groups):
+    """The axis bounds written out: each axis's gap to the moments outside its group, asin(E / (gap - E))."""
+    import math
+    bounds = []
+    for k in range(3):
+        inside = next((g for g in groups if k in g), (k,))
+        gaps = [abs(moments[k] - moments[j]) for j in range(3) if j not in inside]
+        if not gaps:
+            bounds.append(0.0)
+            continue
+        gap = min(gaps) - norm_error
+        ratio = norm_error / gap if gap > 0 else math.inf
+        bounds.append(float(np.arcsin(ratio)) + 4 * 2.0 ** -53 if ratio < 1 else math.pi / 2)
+    return tuple(bounds)
+
+
+@settings(max_examples=200, deadline=None)
+@given(moments=st.lists(st.floats(0.0, 10.0), min_size=3, max_size=3),
+       norm_error=st.floats(0.0, 1.0), tolerance=st.floats(0.0, 5.0))
+def test_axis_bounds_are_the_davis_kahan_bounds_over_each_groups_gap(moments, norm_error, tolerance):
+    from massprops.model.principal import axis_angle_bounds, degenerate_groups
+    moments = sorted(moments)
+    groups = degenerate_groups(moments, tolerance)
+    found = axis_angle_bounds(np.array(moments), norm_error, groups)
+    assert [b.hex() for b in found] == [b.hex() for b in _davis_kahan(moments, norm_error, groups)]
+    for bound, k in zip(found, range(3)):
+        assert 0.0 <= bound <= np.pi / 2
+        if all(k in g for g in groups) and len(groups) == 1 and len(groups[0]) == 3:
+            assert bound == 0.0                 # all three equal: the axes are fixed by convention
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1))
+def test_principal_axes_keep_the_sign_convention(seed):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(3, 3))
+    found = principal(a @ a.T + np.eye(3))
+    for axis in found.axes[:2]:                        # the third is their cross product (right-handed)
+        k = int(np.argmax(np.abs(axis)))              # the first of equal magnitudes
+        assert axis[k] > 0
+    assert np.allclose(found.axes[2], np.cross(found.axes[0], found.axes[1]), rtol=0, atol=1e-12)

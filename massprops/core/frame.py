@@ -79,42 +79,6 @@ def _check_scaled_range(extents, scale_exp):
                                     "be integrated")
 
 
-def _ceil_log2(x):
-    mantissa, exponent = math.frexp(x)
-    return exponent - 1 if mantissa == 0.5 else exponent
-
-
-def _reference_coordinate(low, high):
-    """A shift for one axis such that ``x − shift`` is exact for every float x in [low, high]."""
-    extent = high - low
-    if not extent > 0:
-        return low
-    k = _ceil_log2(extent)                               # 2**(k-1) < extent ≤ 2**k
-    big = math.ldexp(1.0, k) if k < 1024 else math.inf  # an extent over 2**1023: the box holds the origin's side
-    if low >= big or high <= -big:
-        # Every |x| ≥ 2**k, so x is a multiple of 2**(k-52); the shift is a
-        # multiple of 2**(k-8); the difference, a multiple of 2**(k-52) below
-        # 2**(k+1) in size, is representable.
-        return _short_centre(low, high)
-    if 0 < low and high <= 2 * low:
-        return low                                       # Sterbenz: x/2 ≤ low ≤ x
-    if high < 0 and low >= 2 * high:
-        return high
-    return 0.0                                           # the box is within 2 extents of the origin
-
-
-def _short_centre(low, high):
-    """A number near (low + high) / 2 with at most ~10 significant bits (a multiple of 2**(k-8), extent ≤ 2**k)."""
-    extent = high - low
-    if not extent > 0 or not math.isfinite(extent):
-        return low
-    k = _ceil_log2(extent)
-    try:
-        return math.ldexp(round(math.ldexp(low * 0.5 + high * 0.5, 8 - k)), k - 8)
-    except OverflowError:                                # rounded up past the largest double
-        return low
-
-
 @tuple_record
 class Frame:
     """Where and at what scale a part is integrated."""
@@ -125,23 +89,25 @@ class Frame:
 
 
 def frame_of(vertices):
-    """The :class:`Frame` of vertices, shape (n, 3), C-contiguous float64."""
+    """The :class:`Frame` of vertices, shape (n, 3), C-contiguous float64.
+
+    Compiled (``massprops/core/src/post.c``, one call: the box, the reference
+    per axis, the exact-shift test of the box's centre, the scale and the
+    radius): a short number near the centre where subtracting it is exact for
+    every coordinate, else a point of the box that is provably exact for any
+    coordinate in it (a short centre when every ``|x| >= 2**k`` with
+    ``2**k >= extent``; the box's low or high end when Sterbenz's lemma holds;
+    else 0); the scale the smallest power of two at least the largest extent.
+    """
     if vertices.shape[0] == 0:
         return Frame((0.0, 0.0, 0.0), 0, 0.0)
-    low, high = _core.bounding_box(vertices)
-    largest = max(hi - lo for lo, hi in zip(low, high))
-    if math.isinf(largest):
+    low, high, reference, scale_exp, radius, status = _core.frame(vertices)
+    if status == 1:
         raise MeshGeometryError(f"the mesh spans more than the largest double (from {min(low):.3g} to "
                                 f"{max(high):.3g})", fix="rescale it (give it in a larger length unit)")
-    reference = [_reference_coordinate(lo, hi) for lo, hi in zip(low, high)]
-    centre = tuple(_short_centre(lo, hi) for lo, hi in zip(low, high))
-    if any(c != r for c, r in zip(centre, reference)):
-        exact = _core.shift_is_exact(vertices, centre)
-        reference = [c if ok else r for c, r, ok in zip(centre, reference, exact)]
-    scale_exp = _ceil_log2(largest) if largest > 0 else 0
-    _check_scaled_range([hi - lo for lo, hi in zip(low, high)], scale_exp)
-    radius = max(max(abs(hi - r), abs(lo - r)) for lo, hi, r in zip(low, high, reference))
-    return Frame(tuple(reference), scale_exp, math.ldexp(radius, -scale_exp))
+    if status == 2:
+        _check_scaled_range([hi - lo for lo, hi in zip(low, high)], scale_exp)
+    return Frame(reference, scale_exp, radius)
 
 
 def reference_frame(vertices):

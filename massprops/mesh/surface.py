@@ -17,7 +17,8 @@ from dataclasses import field
 import numpy as np
 
 from ..model.records import record
-from ..core import distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core import _core, distinct_faces, face_groups, weld_corners, weld_indexed
+from ..core.arrays import as_points
 from ..core.topology import edge_shells
 from ..model.errors import MeshGeometryError, OpenMeshError, WindingError
 from ..model.frames import matvec
@@ -164,18 +165,29 @@ def check_shells(mesh, path=None):
     except IndexError:
         raise MeshGeometryError("a face refers to a vertex that does not exist", path=path,
                                 fix="re-export the mesh") from None
-    if not np.isfinite(vertices).all():
+    if not _core.all_finite(as_points(vertices)):          # one compiled pass, no array of flags
         _refuse_non_finite(vertices, faces, path)
     if not edges.balanced:
         _refuse_unbalanced(faces, edges, path)
     if labels is None:
         # Every label is 0: one zero seen m times (read-only, no memory), not 8 bytes a face held while the
         # self-intersection search runs, the peak of a large mesh (issue 24).
-        labels = np.broadcast_to(np.int64(0), (faces.shape[0],))
+        labels = _zeros(faces.shape[0])
     # Balanced, so every edge is used an even number of times: exactly twice when none is used more.
     two_faces_an_edge = edges.max_uses <= 2 and edges.collapsed == 0
     return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
                       duplicate_faces=0, degenerate_faces=edges.degenerate_faces), labels, two_faces_an_edge
+
+
+def _zeros(m):
+    """``m`` read-only int64 zeros that share one element (what ``numpy.broadcast_to(0, (m,))`` gives, in a
+    fraction of its microseconds)."""
+    zeros = np.ndarray((m,), dtype=np.int64, buffer=_ZERO, strides=(0,))
+    zeros.flags.writeable = False
+    return zeros
+
+
+_ZERO = np.zeros(1, dtype=np.int64)
 
 
 def _refuse_non_finite(vertices, faces, path):

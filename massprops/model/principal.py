@@ -92,12 +92,21 @@ def axis_angle_bounds(moments, norm_error, groups=()):
     values = np.asarray(moments, dtype=float).tolist()
     bounds = []
     for k in range(3):
-        inside = next((g for g in groups if k in g), (k,))
-        gaps = [abs(values[k] - values[j]) for j in range(3) if j not in inside]
-        if not gaps:
+        inside = (k,)
+        for g in groups:
+            if k in g:
+                inside = g
+                break
+        nearest = None                  # min() of the gaps to the moments outside: the first of equal ones
+        for j in range(3):
+            if j not in inside:
+                gap = abs(values[k] - values[j])
+                if nearest is None or gap < nearest:
+                    nearest = gap
+        if nearest is None:
             bounds.append(0.0)
             continue
-        gap = min(gaps) - norm_error
+        gap = nearest - norm_error
         ratio = norm_error / gap if gap > 0 else math.inf
         bounds.append(float(np.arcsin(ratio)) + 4 * _U if ratio < 1 else math.pi / 2)
     return tuple(bounds)
@@ -129,7 +138,11 @@ def physical_checks(moments, moments_error):
 
 def _canonical_sign(axis):
     """``±axis`` (a list of 3 floats) with its component of largest magnitude positive, first index on ties."""
-    k = max(range(3), key=lambda i: abs(axis[i]))         # max returns the first of ties
+    k, largest = 0, abs(axis[0])                          # as max(): the first of ties
+    if abs(axis[1]) > largest:
+        k, largest = 1, abs(axis[1])
+    if abs(axis[2]) > largest:
+        k = 2
     return axis if axis[k] > 0 else [-x for x in axis]
 
 

@@ -332,7 +332,7 @@ class MassProperties:
         values = (volume, total, _quotient(*rho), surface_area)
         # Below the smallest normal double a value keeps fewer bits than its bound says (1e-319 has 9): refused.
         small = [name for name, value in (("volume", volume), ("mass", total)) if abs(value) < sys.float_info.min]
-        if inertia is not None and float(np.max(np.abs(inertia))) < sys.float_info.min:
+        if inertia is not None and max(map(abs, inertia.ravel().tolist())) < sys.float_info.min:   # finite
             small.append("inertia")
         if small:
             said = small[0] if len(small) == 1 else f"{', '.join(small[:-1])} and {small[-1]}"

@@ -58,6 +58,11 @@ def _make(cls, eq):
     def __init__(self, *args, **kwargs):
         # Checked with set operations (a record is made several times per file of a batch); the first
         # wrong argument is named by refuse().
+        if not kwargs and len(args) == len(names):
+            self.__dict__.update(zip(names, args))          # every field by position: nothing to check
+            if post_init is not None:
+                self.__post_init__()
+            return
         if len(args) > len(names):
             refuse(args, kwargs)
         if not kwargs:

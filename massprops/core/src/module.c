@@ -684,6 +684,34 @@ static PyObject *core_largest_squared_distance(PyObject *self, PyObject *args)
     return PyFloat_FromDouble(largest);
 }
 
+static PyObject *core_all_finite(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    int finite;
+    if (!PyArg_ParseTuple(args, "O", &object) || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    finite = all_finite(view.buf, view.len / 8);
+    PyBuffer_Release(&view);
+    return PyBool_FromLong(finite);
+}
+
+static PyObject *core_frame(PyObject *self, PyObject *args)
+{
+    PyObject *object;
+    Py_buffer view;
+    double low[3], high[3], reference[3] = {0.0, 0.0, 0.0}, radius = 0.0;
+    int scale_exp = 0, status;
+    if (!PyArg_ParseTuple(args, "O", &object) || !get_array(object, &view, ARRAY_F64, "vertices"))
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = frame_choice(view.buf, view.len / 24, low, high, reference, &scale_exp, &radius);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&view);
+    return Py_BuildValue("((ddd)(ddd)(ddd)idi)", low[0], low[1], low[2], high[0], high[1], high[2], reference[0],
+                         reference[1], reference[2], scale_exp, radius, status);
+}
+
 static PyObject *core_jacobi(PyObject *self, PyObject *args)
 {
     double a[9], moments[3], vectors[9], bound;
@@ -718,6 +746,9 @@ static PyMethodDef methods[] = {
      "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
     {"largest_squared_distance", core_largest_squared_distance, METH_VARARGS,
      "largest_squared_distance(vertices, centre) -> max of (dx*dx + dz*dz) + dy*dy over the vertices"},
+    {"all_finite", core_all_finite, METH_VARARGS, "all_finite(vertices) -> whether no coordinate is NaN or infinite"},
+    {"frame", core_frame, METH_VARARGS,
+     "frame(vertices) -> (low, high, reference, scale_exp, radius, status): frame.py's frame_of (n >= 1)"},
     {"jacobi", core_jacobi, METH_VARARGS,
      "jacobi(rows) -> (moments ascending, vectors as rows of columns, backward error) of a symmetric 3x3"},
     {NULL, NULL, 0, NULL}};

@@ -1,7 +1,8 @@
 /* The compiled steps of the post-processing (from the moments to the reported numbers):
  *
  * - cyclic Jacobi on a symmetric 3x3, the eigen-decomposition behind the principal axes;
- * - the largest squared distance of a vertex from the center of mass (the input resolution's bound).
+ * - the largest squared distance of a vertex from the center of mass (the input resolution's bound);
+ * - the integration frame (the box, the exact reference, the scale: core/frame.py's frame_of).
  *
  * Jacobi:
  * The same operations, in the same order, as the Python formulation it replaced
@@ -12,6 +13,7 @@
  * turn it into x * x: the two may differ in the last bit).  So the moments, the
  * axes and the bound are the same bits on every machine. */
 #include "core.h"
+#include "kernel.h"
 
 #include <math.h>
 
@@ -127,4 +129,93 @@ double largest_squared_distance(const double *vertices, int64_t n, const double 
             largest = d;
     }
     return largest;
+}
+
+/* ---- the integration frame (massprops/core/frame.py's frame_of, the same operations in the same order) ---- */
+
+static int ceil_log2(double x)          /* x finite, > 0: k with 2**(k-1) < x <= 2**k */
+{
+    int exponent;
+    double mantissa = frexp(x, &exponent);
+    return mantissa == 0.5 ? exponent - 1 : exponent;
+}
+
+static double short_centre(double low, double high)
+{
+    double extent = high - low, r, y;
+    int k;
+    if (!(extent > 0) || !isfinite(extent))
+        return low;
+    k = ceil_log2(extent);
+    r = nearbyint(ldexp(low * 0.5 + high * 0.5, 8 - k));     /* Python's round(): to nearest, ties to even */
+    if (r == 0.0)
+        r = 0.0;                                               /* round() gives the integer 0: no sign */
+    y = ldexp(r, k - 8);
+    return isinf(y) ? low : y;                                 /* rounded up past the largest double */
+}
+
+static double reference_coordinate(double low, double high)
+{
+    double extent = high - low, big;
+    int k;
+    if (!(extent > 0))
+        return low;
+    k = ceil_log2(extent);
+    big = k < 1024 ? ldexp(1.0, k) : HUGE_VAL;
+    if (low >= big || high <= -big)
+        return short_centre(low, high);
+    if (0 < low && high <= 2 * low)
+        return low;
+    if (high < 0 && low >= 2 * high)
+        return high;
+    return 0.0;
+}
+
+/* Python's max(a, b): a unless b > a (so a NaN first stays, a NaN second never wins). */
+static double python_max(double a, double b)
+{
+    return b > a ? b : a;
+}
+
+int frame_choice(const double *vertices, int64_t n, double low[3], double high[3], double reference[3],
+                 int *scale_exp, double *radius)
+{
+    double largest, centre[3], far;
+    int i, exact[3], differ = 0;
+    bounding_box(vertices, n, low, high);
+    largest = python_max(python_max(high[0] - low[0], high[1] - low[1]), high[2] - low[2]);
+    if (isinf(largest))
+        return 1;
+    for (i = 0; i < 3; i++) {
+        reference[i] = reference_coordinate(low[i], high[i]);
+        centre[i] = short_centre(low[i], high[i]);
+        differ |= centre[i] != reference[i];
+    }
+    if (differ) {
+        shift_is_exact(vertices, n, centre, exact);
+        for (i = 0; i < 3; i++)
+            if (exact[i])
+                reference[i] = centre[i];
+    }
+    *scale_exp = largest > 0 ? ceil_log2(largest) : 0;
+    far = 0.0;
+    for (i = 0; i < 3; i++) {
+        double reach = python_max(fabs(high[i] - reference[i]), fabs(low[i] - reference[i]));
+        far = i == 0 ? reach : python_max(far, reach);
+    }
+    *radius = ldexp(far, -*scale_exp);
+    if (high[0] - low[0] > 0 && high[1] - low[1] > 0 && high[2] - low[2] > 0
+            && log2(high[0] - low[0]) + log2(high[1] - low[1]) + log2(high[2] - low[2]) - 3.0 * *scale_exp < -890.0)
+        return 2;                            /* near the scaled range's limit: frame.py decides, in Python's logs */
+    return 0;
+}
+
+/* Whether every coordinate is finite (no NaN, no infinity): surface.py's check before the edges are trusted. */
+int all_finite(const double *values, int64_t count)
+{
+    int64_t i;
+    int finite = 1;
+    for (i = 0; i < count; i++)
+        finite &= (values[i] - values[i]) == 0.0;      /* x - x is NaN for a NaN or an infinity, else 0 */
+    return finite;
 }

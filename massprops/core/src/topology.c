@@ -115,11 +115,61 @@ typedef struct {
     ((w)->checked && ((uint64_t)(a) >= (uint64_t)(w)->n || (uint64_t)(b) >= (uint64_t)(w)->n     \
                       || (uint64_t)(c) >= (uint64_t)(w)->n))
 
+/* One part (one thread, or a small mesh): every vertex is in range, so the edges are counted and filed with no
+ * range test (the indices were checked before, or are checked here face by face). */
+#define COUNT_ALL(w, tail, head)                                                                 \
+    do {                                                                                         \
+        if ((tail) != (head))                                                                    \
+            (w)->offsets[((tail) < (head) ? (tail) : (head)) + 1]++;                             \
+    } while (0)
+
+#define FILE_ALL(w, tail, head)                                                                  \
+    do {                                                                                         \
+        if ((tail) != (head)) {                                                                  \
+            int64_t lower_ = (tail) < (head) ? (tail) : (head), higher_ = (tail) < (head) ? (head) : (tail); \
+            (w)->entries[(w)->offsets[lower_]++] = (uint32_t)(higher_ << 1) | (uint32_t)((tail) > (head)); \
+        }                                                                                        \
+    } while (0)
+
+static void count_all(EdgeWork *w)
+{
+    int64_t f, a, b, c, collapsed = 0, degenerate = 0;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[0] = 1;
+            break;
+        }
+        COUNT_ALL(w, a, b);
+        COUNT_ALL(w, b, c);
+        COUNT_ALL(w, c, a);
+        collapsed += (a == b) + (b == c) + (c == a);
+        degenerate += a == b || b == c || c == a;
+    }
+    w->collapsed[0] = collapsed;
+    w->degenerate[0] = degenerate;
+}
+
+static void file_all(EdgeWork *w)
+{
+    int64_t f, a, b, c;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        FILE_ALL(w, a, b);
+        FILE_ALL(w, b, c);
+        FILE_ALL(w, c, a);
+    }
+}
+
 static void count_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
     int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, f, a, b, c, collapsed = 0,
             degenerate = 0;
+    if (w->parts == 1) {
+        count_all(w);
+        return;
+    }
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
         if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
@@ -142,6 +192,10 @@ static void file_part(void *arg, int64_t part)
 {
     EdgeWork *w = arg;
     int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, f, a, b, c;
+    if (w->parts == 1) {
+        file_all(w);
+        return;
+    }
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
         FILE_EDGE(w, a, b, low, high);
@@ -363,6 +417,30 @@ static void join_faces(EdgeWork *w)
     }
 }
 
+/* One thread: the joining and the counting in one pass over the faces. */
+static void join_and_count(EdgeWork *w)
+{
+    int64_t f, a, b, c, collapsed = 0, degenerate = 0;
+    for (f = 0; f < w->n; f++)
+        w->parent[f] = (int32_t)f;
+    for (f = 0; f < w->m; f++) {
+        CORNERS(w, f, a, b, c);
+        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
+            w->outside[0] = w->outside[1] = 1;
+            break;
+        }
+        join(w->parent, (int32_t)a, (int32_t)b);
+        join(w->parent, (int32_t)a, (int32_t)c);
+        COUNT_ALL(w, a, b);
+        COUNT_ALL(w, b, c);
+        COUNT_ALL(w, c, a);
+        collapsed += (a == b) + (b == c) + (c == a);
+        degenerate += a == b || b == c || c == a;
+    }
+    w->collapsed[0] = collapsed;
+    w->degenerate[0] = degenerate;
+}
+
 static void shells_or_edges(void *arg, int64_t block)
 {
     if (block == 0)
@@ -449,7 +527,10 @@ static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int t
             goto done;
         }
         w.checked = 1;
-        parallel_blocks(threads, 2, shells_or_edges, &w);
+        if (threads > 1)
+            parallel_blocks(threads, 2, shells_or_edges, &w);
+        else
+            join_and_count(&w);
         if ((w.outside[0] || w.outside[1]) && check_indices(faces, faces32, m, n, failure) != 0)
             goto done;
         w.checked = 0;
