@@ -102,6 +102,15 @@ int parse_double(const char *start, const char *end, double *value);
  * what follows); -1 when no such number starts there (inf and nan are parse_double's). */
 int parse_decimal(const char *start, const char *end, const char **stop, double *value);
 
+/* The value of eight decimal digits held one a byte (0..9, the first digit in the lowest byte), as
+ * the digit loop forms it (Lemire's fast_float: three multiplications instead of eight). */
+static inline uint64_t eight_digits_value(uint64_t digits)
+{
+    digits = digits * 10 + (digits >> 8);
+    return ((digits & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))
+            + ((digits >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32;
+}
+
 struct MeshArrays {
     double *vertices;         /* n x 3, owned by the caller after success */
     int64_t n;

@@ -307,10 +307,7 @@ static inline int eight_digits(const char *p, uint64_t *value)
     if (((v & 0xF0F0F0F0F0F0F0F0ULL) | (((v + 0x0606060606060606ULL) & 0xF0F0F0F0F0F0F0F0ULL) >> 4))
             != 0x3333333333333333ULL)
         return 0;
-    v -= 0x3030303030303030ULL;
-    v = v * 10 + (v >> 8);
-    *value = ((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))
-              + ((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32;
+    *value = eight_digits_value(v - 0x3030303030303030ULL);
     return 1;
 #else
     (void)p;

@@ -134,9 +134,7 @@ static inline int short_number(const char **p, int64_t *value)
         return 0;
     n = __builtin_ctzll(other) >> 3;             /* digits before it: 1..7 (the first is a digit) */
     x <<= 8 * (8 - n);                           /* the digits, as the last n of eight */
-    x = x * 10 + (x >> 8);
-    *value = (int64_t)((((x & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))
-                         + ((x >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32))) >> 32));
+    *value = (int64_t)eight_digits_value(x);
     *p += n;
     return 1;
 #else

@@ -131,14 +131,24 @@ typedef struct {
         }                                                                                        \
     } while (0)
 
-static void count_all(EdgeWork *w)
+/* Every face's three edges counted; with `join`, its corners joined into one shell as well (one
+ * thread: the joining and the counting in one pass over the faces). */
+static inline void count_faces(EdgeWork *w, int join_shells)
 {
     int64_t f, a, b, c, collapsed = 0, degenerate = 0;
+    for (f = 0; join_shells && f < w->n; f++)
+        w->parent[f] = (int32_t)f;
     for (f = 0; f < w->m; f++) {
         CORNERS(w, f, a, b, c);
         if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
             w->outside[0] = 1;
+            if (join_shells)
+                w->outside[1] = 1;
             break;
+        }
+        if (join_shells) {
+            join(w->parent, (int32_t)a, (int32_t)b);
+            join(w->parent, (int32_t)a, (int32_t)c);
         }
         COUNT_ALL(w, a, b);
         COUNT_ALL(w, b, c);
@@ -148,6 +158,11 @@ static void count_all(EdgeWork *w)
     }
     w->collapsed[0] = collapsed;
     w->degenerate[0] = degenerate;
+}
+
+static void count_all(EdgeWork *w)
+{
+    count_faces(w, 0);
 }
 
 static void file_all(EdgeWork *w)
@@ -417,28 +432,9 @@ static void join_faces(EdgeWork *w)
     }
 }
 
-/* One thread: the joining and the counting in one pass over the faces. */
 static void join_and_count(EdgeWork *w)
 {
-    int64_t f, a, b, c, collapsed = 0, degenerate = 0;
-    for (f = 0; f < w->n; f++)
-        w->parent[f] = (int32_t)f;
-    for (f = 0; f < w->m; f++) {
-        CORNERS(w, f, a, b, c);
-        if (__builtin_expect(OUTSIDE(w, a, b, c), 0)) {
-            w->outside[0] = w->outside[1] = 1;
-            break;
-        }
-        join(w->parent, (int32_t)a, (int32_t)b);
-        join(w->parent, (int32_t)a, (int32_t)c);
-        COUNT_ALL(w, a, b);
-        COUNT_ALL(w, b, c);
-        COUNT_ALL(w, c, a);
-        collapsed += (a == b) + (b == c) + (c == a);
-        degenerate += a == b || b == c || c == a;
-    }
-    w->collapsed[0] = collapsed;
-    w->degenerate[0] = degenerate;
+    count_faces(w, 1);
 }
 
 static void shells_or_edges(void *arg, int64_t block)
