@@ -658,7 +658,7 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     int64_t most = (m + 8191) / 8192, n_blocks = 4 * (int64_t)(threads < 1 ? 1 : threads);
     co->n_blocks = n_blocks = n_blocks < most ? n_blocks : (most ? most : 1);
     co->per_block = (m + n_blocks - 1) / n_blocks;
-    co->home = m <= HOME_MOST ? malloc(sizeof(uint32_t) * (m ? m : 1)) : NULL;
+    co->home = m <= HOME_MOST ? isect_alloc(sizeof(uint32_t) * (m ? m : 1), 0) : NULL;
     co->box = malloc(sizeof(double[6]) * n_blocks);
     co->count = malloc(sizeof(int64_t) * n_blocks);
     co->valid = malloc(sizeof(int64_t) * n_blocks);
