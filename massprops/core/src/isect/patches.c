@@ -457,19 +457,23 @@ static void certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, i
     int child = level - 1;
     uint32_t *sub = sc->list[child];
     uint8_t *octants = sc->octants[child];
+    /* octant o is child (o & 1, o >> 1 & 1, o >> 2 & 1) along x, y, z; per axis, the octants on its
+     * lower and upper side */
+    static const uint8_t side[3][2] = {{0x55, 0xAA}, {0x33, 0xCC}, {0x0F, 0xF0}};
+    unsigned occupied = 0;
     for (int64_t i = 0; i < k; i++) {
         int64_t c0[3], c1[3];
         face_cells(g, list[i], child, c0, c1);
-        unsigned along[3];
+        uint8_t in = 0xFF;
         for (int a = 0; a < 3; a++)
-            along[a] = (c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a]) | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a]) << 1;
-        uint8_t in = 0;
-        for (int octant = 0; octant < 8; octant++)
-            in |= (uint8_t)((along[0] >> (octant & 1) & along[1] >> (octant >> 1 & 1) & along[2] >> (octant >> 2 & 1) & 1)
-                            << octant);
+            in &= (uint8_t)((c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a] ? side[a][0] : 0)
+                            | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a] ? side[a][1] : 0));
         octants[i] = in;
+        occupied |= in;
     }
     for (int octant = 0; octant < 8; octant++) {
+        if (!(occupied >> octant & 1))
+            continue;
         int64_t at[3] = {2 * cell[0] + (octant & 1), 2 * cell[1] + (octant >> 1 & 1), 2 * cell[2] + (octant >> 2 & 1)};
         int64_t n = 0;
         for (int64_t i = 0; i < k; i++)
