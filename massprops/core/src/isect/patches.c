@@ -457,19 +457,23 @@ static void certify_cell(const Patches *pa, Scratch *sc, const uint32_t *list, i
     int child = level - 1;
     uint32_t *sub = sc->list[child];
     uint8_t *octants = sc->octants[child];
+    /* octant o is child (o & 1, o >> 1 & 1, o >> 2 & 1) along x, y, z; per axis, the octants on its
+     * lower and upper side */
+    static const uint8_t side[3][2] = {{0x55, 0xAA}, {0x33, 0xCC}, {0x0F, 0xF0}};
+    unsigned occupied = 0;
     for (int64_t i = 0; i < k; i++) {
         int64_t c0[3], c1[3];
         face_cells(g, list[i], child, c0, c1);
-        unsigned along[3];
+        uint8_t in = 0xFF;
         for (int a = 0; a < 3; a++)
-            along[a] = (c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a]) | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a]) << 1;
-        uint8_t in = 0;
-        for (int octant = 0; octant < 8; octant++)
-            in |= (uint8_t)((along[0] >> (octant & 1) & along[1] >> (octant >> 1 & 1) & along[2] >> (octant >> 2 & 1) & 1)
-                            << octant);
+            in &= (uint8_t)((c0[a] <= 2 * cell[a] && 2 * cell[a] <= c1[a] ? side[a][0] : 0)
+                            | (c0[a] <= 2 * cell[a] + 1 && 2 * cell[a] + 1 <= c1[a] ? side[a][1] : 0));
         octants[i] = in;
+        occupied |= in;
     }
     for (int octant = 0; octant < 8; octant++) {
+        if (!(occupied >> octant & 1))
+            continue;
         int64_t at[3] = {2 * cell[0] + (octant & 1), 2 * cell[1] + (octant >> 1 & 1), 2 * cell[2] + (octant >> 2 & 1)};
         int64_t n = 0;
         for (int64_t i = 0; i < k; i++)
@@ -511,26 +515,40 @@ static void patch_block(void *ctx, int worker, int64_t block)
 /* Every face is at one level, so the cells can be an array (when there are not many more cells
  * than faces) and the faces filed into them by counting: per block of faces, per cell, instead
  * of keys sorted.  Faces keep their input index, ascending within a cell as in the sorted grid
- * (grid.c), whose cells, base and entries these are; the sorted grid is the fallback.  About 5
- * bytes a face (a 32-bit index per entry; each face's cell while filing) instead of the sorted
- * grid's 40 (keys, copies, cells and the sort's scratch). */
+ * (grid.c), the fallback.  About 5 bytes a face (a 32-bit index per entry; each face's cell while
+ * filing, below HOME_MOST faces) instead of the sorted grid's 40 (keys, copies, cells and the
+ * sort's scratch).  The grid's origin is the low corner of a box holding every face taken: with
+ * every face taken, the box of the vertices some face uses (the stars' incidences say which: a
+ * pass over the vertices, not over the faces' scattered corners), or else a pass of its own. */
 
 enum { HOME_NONE = 0xFFFFFFFF, HOME_SPLIT = 0xFFFFFFFE };
+/* Above this many faces no cell is kept per face while filing (4 bytes a face, on the 10M torus
+ * alive at the search's peak beside the filed faces and the stars): the filing pass finds each
+ * face's cells again. */
+#define HOME_MOST ((int64_t)1 << 22)
 
 typedef struct {
     const double *V;
     const int64_t *F;
     const uint8_t *take;
+    const uint32_t *begin;    /* the stars' incidence offsets: vertex v is used when begin[v + 1] > begin[v] */
+    int64_t n;                /* vertices */
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint32_t *home;           /* per face: HOME_NONE (not taken, or of zero area), then its cell, or HOME_SPLIT */
+    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken, or of zero area), its cell, or HOME_SPLIT */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
-    int64_t *count;           /* per block: valid faces, then entries */
+    int64_t *count;           /* per block: valid faces (valid_block), then entries */
+    int64_t *valid;           /* per block: valid faces (counted with the entries) */
     int top;
     int64_t dims[3], n_cells;
     uint32_t *slot;           /* per block, per cell: entries, then where the next one goes */
     uint32_t *face;           /* per entry: input face index */
 } Coarse;
+
+static inline int taken_face(const Coarse *co, int64_t t, P a, P b, P e)
+{
+    return (!co->take || co->take[t]) && has_area(a, b, e);
+}
 
 static void valid_block(void *ctx, int64_t block)
 {
@@ -541,9 +559,7 @@ static void valid_block(void *ctx, int64_t block)
     for (int64_t t = t0; t < t1; t++) {
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        uint32_t home = (!co->take || co->take[t]) && has_area(a, b, e) ? 0 : HOME_NONE;
-        co->home[t] = home;
-        if (home == HOME_NONE)
+        if (!taken_face(co, t, a, b, e))
             continue;
         for (int k = 0; k < 3; k++) {
             box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
@@ -555,22 +571,54 @@ static void valid_block(void *ctx, int64_t block)
     co->count[block] = n;
 }
 
+/* The box of the used vertices of the block's share of them. */
+static void used_block(void *ctx, int64_t block)
+{
+    Coarse *co = ctx;
+    int64_t per = (co->n + co->n_blocks - 1) / co->n_blocks;
+    int64_t v0 = block * per, v1 = v0 + per < co->n ? v0 + per : co->n;
+    double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int64_t v = v0; v < v1; v++) {
+        if (co->begin[v + 1] == co->begin[v])
+            continue;
+        P p = co->V + 3 * v;
+        for (int k = 0; k < 3; k++) {
+            box[k] = dmin(box[k], p[k]);
+            box[3 + k] = dmax(box[3 + k], p[k]);
+        }
+    }
+    memcpy(co->box[block], box, sizeof(box));
+}
+
 /* The block's entries: counted per cell (fill 0), or filed (fill 1). */
 static void cells_block(Coarse *co, int64_t block, int fill)
 {
-    int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0;
+    int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0, valid = 0;
     uint32_t *slot = co->slot + block * co->n_cells;
+    const Grid *g = co->g;
     for (int64_t t = t0; t < t1; t++) {
-        uint32_t home = co->home[t];
-        if (home == HOME_NONE)
-            continue;
-        if (fill && home != HOME_SPLIT) {
-            co->face[slot[home]++] = (uint32_t)t;
-            n++;
+        if (fill && co->home) {
+            uint32_t home = co->home[t];
+            if (home == HOME_NONE)
+                continue;
+            if (home != HOME_SPLIT) {
+                co->face[slot[home]++] = (uint32_t)t;
+                continue;
+            }
+        }
+        const int64_t *c = co->F + 3 * t;
+        P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
+        if (!(fill && co->home) && !taken_face(co, t, a, b, e)) {
+            if (co->home)
+                co->home[t] = HOME_NONE;
             continue;
         }
+        valid++;
         int64_t c0[3], c1[3];
-        face_cells(co->g, t, co->top, c0, c1);
+        for (int k = 0; k < 3; k++) {
+            c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
+            c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> co->top;
+        }
         for (int64_t z = c0[2]; z <= c1[2]; z++)
             for (int64_t y = c0[1]; y <= c1[1]; y++)
                 for (int64_t x = c0[0]; x <= c1[0]; x++) {
@@ -581,22 +629,26 @@ static void cells_block(Coarse *co, int64_t block, int fill)
                         slot[cell]++;
                     n++;
                 }
-        if (!fill)
+        if (!fill && co->home)
             co->home[t] = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]
                               ? (uint32_t)((c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0]) : HOME_SPLIT;
     }
-    co->count[block] = n;
+    if (!fill) {
+        co->count[block] = n;
+        co->valid[block] = valid;
+    }
 }
 
 static void count_block(void *ctx, int64_t block) { cells_block(ctx, block, 0); }
 static void fill_block(void *ctx, int64_t block) { cells_block(ctx, block, 1); }
 
 /* The coarse grid at level `top` of the faces taken, counted into g (its faces are the input's:
- * g->corner = F) and co->slot; 0, 1 when nothing is to be done (no face, or more than
- * PATCH_ENTRY_LIMIT entries a face, as grid_build_at), 2 when the cells are too many for an array
- * (then nothing is built), -1 out of memory. */
+ * g->corner = F) and co->slot; with `stars` (NULL when take is not) the box is that of their used
+ * vertices.  0, 1 when nothing is to be done (no face, or more than PATCH_ENTRY_LIMIT entries a
+ * face, as grid_build_at), 2 when the cells are too many for an array (then nothing is built), -1
+ * out of memory. */
 static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, const int64_t *shell,
-                        const uint8_t *take, int64_t m, int top, int threads)
+                        const uint8_t *take, int64_t m, int top, const Stars *stars, int threads)
 {
     memset(g, 0, sizeof(*g));
     memset(co, 0, sizeof(*co));
@@ -610,33 +662,49 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     int64_t most = (m + 8191) / 8192, n_blocks = 4 * (int64_t)(threads < 1 ? 1 : threads);
     co->n_blocks = n_blocks = n_blocks < most ? n_blocks : (most ? most : 1);
     co->per_block = (m + n_blocks - 1) / n_blocks;
-    co->home = malloc(sizeof(uint32_t) * (m ? m : 1));
+    co->home = m <= HOME_MOST ? isect_alloc(sizeof(uint32_t) * (m ? m : 1), 0) : NULL;
     co->box = malloc(sizeof(double[6]) * n_blocks);
     co->count = malloc(sizeof(int64_t) * n_blocks);
+    co->valid = malloc(sizeof(int64_t) * n_blocks);
     double *extent = malloc(sizeof(double) * GRID_SAMPLES);
     int status = -1;
-    if (!co->home || !co->box || !co->count || !extent)
+    if ((!co->home && m <= HOME_MOST) || !co->box || !co->count || !co->valid || !extent)
         goto done;
-    parallel_blocks(threads, n_blocks, valid_block, co);
-    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    int64_t n = 0;
-    for (int64_t k = 0; k < n_blocks; k++) {
-        n += co->count[k];
+    double glo[3], ghi[3];
+    int64_t n = m;            /* faces taken: at most m until counted */
+    if (stars) {
+        co->begin = stars->begin;
+        co->n = stars->n;
+        parallel_blocks(threads, n_blocks, used_block, co);
+    } else {
+        parallel_blocks(threads, n_blocks, valid_block, co);
+        n = 0;
+        for (int64_t k = 0; k < n_blocks; k++)
+            n += co->count[k];
+    }
+    for (int a = 0; a < 3; a++)
+        glo[a] = INFINITY, ghi[a] = -INFINITY;
+    for (int64_t k = 0; k < n_blocks; k++)
         for (int a = 0; a < 3; a++) {
             glo[a] = dmin(glo[a], co->box[k][a]);
             ghi[a] = dmax(ghi[a], co->box[k][3 + a]);
         }
-    }
     status = 1;
-    if (n == 0)
+    if (n == 0 || !(glo[0] <= ghi[0]))
         goto done;
-    /* the sorted grid's base: sample s is its valid face of rank grid_sample(s) */
-    int samples = n < GRID_SAMPLES ? (int)n : GRID_SAMPLES;
-    int64_t t = -1, rank = -1;
-    for (int x = 0; x < samples; x++) {
-        int64_t want = grid_sample(x, n, samples);
-        while (rank < want)
-            rank += co->home[++t] != HOME_NONE;
+    /* the cells' side from the extents of faces taken spread over the input (of zero area too:
+     * the side is a choice of speed, not of what is certified) */
+    int64_t pool = 0;
+    for (int64_t t = 0; take && t < m; t++)
+        pool += take[t] != 0;
+    pool = take ? pool : m;
+    int samples = pool < GRID_SAMPLES ? (int)pool : GRID_SAMPLES;
+    for (int64_t x = 0, t = -1, rank = -1; x < samples; x++) {
+        int64_t want = grid_sample((int)x, pool, samples);
+        if (!take)
+            t = want;
+        while (take && rank < want)
+            rank += take[++t] != 0;
         const int64_t *c = F + 3 * t;
         P a = V + 3 * c[0], b = V + 3 * c[1], e = V + 3 * c[2];
         extent[x] = 0.0;
@@ -664,10 +732,13 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
         goto done;
     parallel_blocks(threads, n_blocks, count_block, co);
     int64_t entries = 0;
-    for (int64_t k = 0; k < n_blocks; k++)
+    n = 0;
+    for (int64_t k = 0; k < n_blocks; k++) {
         entries += co->count[k];
+        n += co->valid[k];
+    }
     status = 1;
-    if (entries > PATCH_ENTRY_LIMIT * n)
+    if (n == 0 || entries > PATCH_ENTRY_LIMIT * n)
         goto done;
     status = -1;
     for (int64_t c = 0, at = 0; c < co->n_cells; c++)
@@ -684,7 +755,7 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     g->n_entries = entries;
     status = 0;
 done:
-    free(co->home), free(co->box), free(co->count), free(extent);
+    free(co->home), free(co->box), free(co->count), free(co->valid), free(extent);
     co->home = NULL;
     if (status != 0) {
         free(co->slot);
@@ -707,7 +778,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
         top++;
     Grid g;
     Coarse co;
-    int status = coarse_build(&co, &g, V, F, shell, take, m, top, threads);
+    int status = coarse_build(&co, &g, V, F, shell, take, m, top, take ? NULL : stars, threads);
     if (status == 2)
         status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
     if (status != 0 || g.n == 0) {

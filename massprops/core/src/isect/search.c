@@ -741,6 +741,10 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         take[t] = active[t] != 0;
         taken += take[t];
     }
+    if (take && keep_all && taken == m) {
+        free(take);                   /* every face active: as without flags */
+        take = NULL;
+    }
     for (int64_t t = 0; take && !keep_all && t < m; t++) {
         take[t] = (!active || active[t]) && (between || !have_stars || !stars->shell_embedded[shell_at(shell, t)]);
         taken += take[t];
