@@ -198,8 +198,7 @@ def _run_local(todo, settings, output_format, jobs, timeout):
     compute = partial(run_one, settings=settings, output_format=output_format)
     failed = partial(_failed_locally, settings=settings, output_format=output_format, timeout=timeout)
     threads = max(1, default_jobs() // jobs)        # cores shared out: no oversubscription by kernel threads
-    for outcome in run_workers(todo, compute, failed, jobs=jobs, timeout=timeout, threads=threads):
-        yield [outcome]
+    yield from run_workers(todo, compute, failed, jobs=jobs, timeout=timeout, threads=threads)
 
 
 def _failed_locally(path, kind, detail, *, settings, output_format, timeout):

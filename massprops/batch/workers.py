@@ -31,7 +31,9 @@ __all__ = ["run_workers", "WORKER_FAILED", "TIMED_OUT"]
 
 WORKER_FAILED = "worker"
 TIMED_OUT = "timeout"
-_QUEUED = 2                      # files sent to a worker ahead: the one it computes and the next
+_QUEUED = 2                      # files sent to a worker ahead at least: the one it computes and the next
+_MOST_QUEUED = 16                # and at most, so the last files are shared out evenly
+_SETTLE = 0.004                  # seconds the parent lets outcomes gather after a wake, while files are queued
 _PR_SET_PDEATHSIG = 1
 
 
@@ -77,6 +79,8 @@ class _Worker:
     connection: object
     held: deque = field(default_factory=deque)       # (path, attempt) sent, in order; the first is being computed
     began: float = 0.0                                 # when it began the first of ``held``
+    per_file: float = math.inf                         # seconds a file takes it, as last seen by the parent
+    collected: float = 0.0                             # when its outcomes were last collected
     has_data: object = None                            # has_data(timeout): whether an outcome is waiting
 
     def __post_init__(self):
@@ -149,14 +153,19 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
                 waiting = tuple(busy)          # the same workers as the last wait, mostly: one poll object for them
                 wait = _waiter([w.connection for w in busy] + [w.process.sentinel for w in busy])
             ready = wait(limit)
+            if queue and ready and not any(isinstance(item, int) for item in ready):
+                time.sleep(_SETTLE)            # let more outcomes arrive: one wake for several files
             ended = {item for item in ready if isinstance(item, int)}          # sentinels: processes that exited
+            finished = []
             for worker in list(busy):
                 done, lost = _collect(worker, timeout, worker.process.sentinel in ended)
-                yield from done
+                finished += done
                 if lost is not None:
                     workers.remove(worker)
                     worker.stop(kill=True)
-                    yield from _lost(worker, lost, queue, failed)
+                    finished += _lost(worker, lost, queue, failed)
+            if finished:
+                yield finished
     finally:
         for worker in workers:
             try:
@@ -194,9 +203,18 @@ def _waiter(objects):
     return wait
 
 
+def _depth(worker):
+    """How many files ``worker`` should hold: enough for it to stay busy while the parent lets outcomes gather
+    (:data:`_SETTLE`, twice over), from the time a file takes it; :data:`_QUEUED` until that is known, and for
+    slow files."""
+    if worker.per_file == math.inf:
+        return _QUEUED
+    return min(_MOST_QUEUED, _QUEUED + math.ceil(2 * _SETTLE / max(worker.per_file, 1e-6)))
+
+
 def _feed(worker, queue):
-    """Send ``worker`` files until it holds :data:`_QUEUED`; a worker found dead keeps them (then retried)."""
-    while queue and len(worker.held) < _QUEUED:
+    """Send ``worker`` files until it holds :func:`_depth`; a worker found dead keeps them (then retried)."""
+    while queue and len(worker.held) < _depth(worker):
         if not worker.held:
             worker.began = time.monotonic()
         worker.held.append(queue.popleft())
@@ -219,6 +237,11 @@ def _collect(worker, timeout, ended=True):
             worker.began = time.monotonic()
     except (EOFError, OSError):
         pass
+    if done:
+        now = time.monotonic()
+        if worker.collected:
+            worker.per_file = (now - worker.collected) / len(done)
+        worker.collected = now
     if not worker.held:
         return done, None
     if ended and not worker.process.is_alive():
