@@ -63,6 +63,8 @@ def _serve(connection, parent, threads, compute):
     _die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)       # Ctrl-C is the parent's to handle
     os.environ.setdefault("MASSPROPS_THREADS", str(threads))
+    import gc
+    gc.freeze()               # the parent's objects, inherited: never traversed (nor their pages copied) by collections
     while True:
         try:
             path = connection.recv()
