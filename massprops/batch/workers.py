@@ -1,8 +1,10 @@
 """Local worker processes for a batch: a time limit per file, and a dead worker costs only its file.
 
-Each worker is a process fed one file at a time over its own pipe (with one
-more queued, so it never waits for the next).  The parent always knows which
-file a worker holds, so:
+Each worker is a process fed files over its own pipe, a few queued ahead so
+it never waits for the next (as many as keep it busy for a few milliseconds:
+the parent, woken by an outcome, lets the others gather before it takes them,
+so it wakes once for several files).  A worker sends each outcome as soon as
+it has it, so the parent always knows which file a worker holds, and:
 
 * a worker that dies (a crash in a compiled reader, the out-of-memory killer,
   ``kill -9``) costs only the file it held: that file is retried once in a
@@ -18,6 +20,7 @@ So ``kill -9`` of a batch leaves no orphans.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import signal
@@ -63,16 +66,16 @@ def _serve(connection, parent, threads, compute):
     _die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)       # Ctrl-C is the parent's to handle
     os.environ.setdefault("MASSPROPS_THREADS", str(threads))
-    import gc
     gc.freeze()               # the parent's objects, inherited: never traversed (nor their pages copied) by collections
     while True:
         try:
-            path = connection.recv()
+            paths = connection.recv()
         except (EOFError, OSError):
             return
-        if path is None:
+        if paths is None:
             return
-        connection.send(compute(path))
+        for path in paths:
+            connection.send(compute(path))
 
 
 @dataclass(eq=False)
@@ -216,14 +219,17 @@ def _depth(worker):
 
 def _feed(worker, queue):
     """Send ``worker`` files until it holds :func:`_depth`; a worker found dead keeps them (then retried)."""
-    while queue and len(worker.held) < _depth(worker):
-        if not worker.held:
-            worker.began = time.monotonic()
-        worker.held.append(queue.popleft())
-        try:
-            worker.connection.send(worker.held[-1][0])
-        except OSError:
-            return                    # it died: its sentinel is ready, and _collect says so
+    count = min(len(queue), _depth(worker) - len(worker.held))
+    if count <= 0:
+        return
+    if not worker.held:
+        worker.began = time.monotonic()
+    sent = [queue.popleft() for _ in range(count)]
+    worker.held.extend(sent)
+    try:
+        worker.connection.send(tuple(path for path, _ in sent))        # one message: the worker wakes once
+    except OSError:
+        pass                          # it died: its sentinel is ready, and _collect says so
 
 
 def _collect(worker, timeout, ended=True):
