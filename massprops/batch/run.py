@@ -357,6 +357,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
                     units.append(outcome.unit)
                 if on_outcome is not None:
                     on_outcome(outcome)
+            writer.flush()
     finally:
         arriving.close()                                  # stops the workers now, whatever ended the loop
         writer.close()
