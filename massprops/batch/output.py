@@ -200,17 +200,22 @@ class ReportWriter:
                 f.flush()
 
     def add(self, outcome, stat, *, retry=False):
+        """Append one record; it reaches the files at the next :meth:`flush` (or sooner)."""
         self.lines[outcome.file] = outcome.line
         if self.state_file is None:
             return
         with self._writing():
-            # the row first: a row without its state entry is merely recomputed on resume
+            # a row without its state entry, or an entry without its row, is merely recomputed on resume
             if self.report_file is not None:
                 self.report_file.write(outcome.line)
-                self.report_file.flush()
             if stat is not None:
                 self.state_file.write(json.dumps(self._entry(outcome.file, stat, outcome.line, retry)) + "\n")
-            self._flush()
+
+    def flush(self):
+        """Write the records added so far to the files: once for the outcomes that arrive together."""
+        if self.state_file is not None:
+            with self._writing():
+                self._flush()
 
     def close(self, *, quietly=False):
         for f in (self.report_file, self.state_file):

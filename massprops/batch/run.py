@@ -198,8 +198,7 @@ def _run_local(todo, settings, output_format, jobs, timeout):
     compute = partial(run_one, settings=settings, output_format=output_format)
     failed = partial(_failed_locally, settings=settings, output_format=output_format, timeout=timeout)
     threads = max(1, default_jobs() // jobs)        # cores shared out: no oversubscription by kernel threads
-    for outcome in run_workers(todo, compute, failed, jobs=jobs, timeout=timeout, threads=threads):
-        yield [outcome]
+    yield from run_workers(todo, compute, failed, jobs=jobs, timeout=timeout, threads=threads)
 
 
 def _failed_locally(path, kind, detail, *, settings, output_format, timeout):
@@ -358,6 +357,7 @@ def run_batch(files, settings=Settings(), *, output=None, output_format="csv", j
                     units.append(outcome.unit)
                 if on_outcome is not None:
                     on_outcome(outcome)
+            writer.flush()
     finally:
         arriving.close()                                  # stops the workers now, whatever ended the loop
         writer.close()

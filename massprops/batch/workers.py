@@ -1,8 +1,10 @@
 """Local worker processes for a batch: a time limit per file, and a dead worker costs only its file.
 
-Each worker is a process fed one file at a time over its own pipe (with one
-more queued, so it never waits for the next).  The parent always knows which
-file a worker holds, so:
+Each worker is a process fed files over its own pipe, a few queued ahead so
+it never waits for the next (as many as keep it busy for a few milliseconds:
+the parent, woken by an outcome, lets the others gather before it takes them,
+so it wakes once for several files).  A worker sends each outcome as soon as
+it has it, so the parent always knows which file a worker holds, and:
 
 * a worker that dies (a crash in a compiled reader, the out-of-memory killer,
   ``kill -9``) costs only the file it held: that file is retried once in a
@@ -18,6 +20,7 @@ So ``kill -9`` of a batch leaves no orphans.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import signal
@@ -31,7 +34,9 @@ __all__ = ["run_workers", "WORKER_FAILED", "TIMED_OUT"]
 
 WORKER_FAILED = "worker"
 TIMED_OUT = "timeout"
-_QUEUED = 2                      # files sent to a worker ahead: the one it computes and the next
+_QUEUED = 2                      # files sent to a worker ahead at least: the one it computes and the next
+_MOST_QUEUED = 16                # and at most, so the last files are shared out evenly
+_SETTLE = 0.004                  # seconds the parent lets outcomes gather after a wake, while files are queued
 _PR_SET_PDEATHSIG = 1
 
 
@@ -61,14 +66,16 @@ def _serve(connection, parent, threads, compute):
     _die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)       # Ctrl-C is the parent's to handle
     os.environ.setdefault("MASSPROPS_THREADS", str(threads))
+    gc.freeze()               # the parent's objects, inherited: never traversed (nor their pages copied) by collections
     while True:
         try:
-            path = connection.recv()
+            paths = connection.recv()
         except (EOFError, OSError):
             return
-        if path is None:
+        if paths is None:
             return
-        connection.send(compute(path))
+        for path in paths:
+            connection.send(compute(path))
 
 
 @dataclass(eq=False)
@@ -77,6 +84,8 @@ class _Worker:
     connection: object
     held: deque = field(default_factory=deque)       # (path, attempt) sent, in order; the first is being computed
     began: float = 0.0                                 # when it began the first of ``held``
+    per_file: float = math.inf                         # seconds a file takes it, as last seen by the parent
+    collected: float = 0.0                             # when its outcomes were last collected
     has_data: object = None                            # has_data(timeout): whether an outcome is waiting
 
     def __post_init__(self):
@@ -149,14 +158,19 @@ def run_workers(paths, compute, failed, *, jobs, timeout=None, threads=1):
                 waiting = tuple(busy)          # the same workers as the last wait, mostly: one poll object for them
                 wait = _waiter([w.connection for w in busy] + [w.process.sentinel for w in busy])
             ready = wait(limit)
+            if queue and ready and not any(isinstance(item, int) for item in ready):
+                time.sleep(_SETTLE)            # let more outcomes arrive: one wake for several files
             ended = {item for item in ready if isinstance(item, int)}          # sentinels: processes that exited
+            finished = []
             for worker in list(busy):
                 done, lost = _collect(worker, timeout, worker.process.sentinel in ended)
-                yield from done
+                finished += done
                 if lost is not None:
                     workers.remove(worker)
                     worker.stop(kill=True)
-                    yield from _lost(worker, lost, queue, failed)
+                    finished += _lost(worker, lost, queue, failed)
+            if finished:
+                yield finished
     finally:
         for worker in workers:
             try:
@@ -194,16 +208,28 @@ def _waiter(objects):
     return wait
 
 
+def _depth(worker):
+    """How many files ``worker`` should hold: enough for it to stay busy while the parent lets outcomes gather
+    (:data:`_SETTLE`, twice over), from the time a file takes it; :data:`_QUEUED` until that is known, and for
+    slow files."""
+    if worker.per_file == math.inf:
+        return _QUEUED
+    return min(_MOST_QUEUED, _QUEUED + math.ceil(2 * _SETTLE / max(worker.per_file, 1e-6)))
+
+
 def _feed(worker, queue):
-    """Send ``worker`` files until it holds :data:`_QUEUED`; a worker found dead keeps them (then retried)."""
-    while queue and len(worker.held) < _QUEUED:
-        if not worker.held:
-            worker.began = time.monotonic()
-        worker.held.append(queue.popleft())
-        try:
-            worker.connection.send(worker.held[-1][0])
-        except OSError:
-            return                    # it died: its sentinel is ready, and _collect says so
+    """Send ``worker`` files until it holds :func:`_depth`; a worker found dead keeps them (then retried)."""
+    count = min(len(queue), _depth(worker) - len(worker.held))
+    if count <= 0:
+        return
+    if not worker.held:
+        worker.began = time.monotonic()
+    sent = [queue.popleft() for _ in range(count)]
+    worker.held.extend(sent)
+    try:
+        worker.connection.send(tuple(path for path, _ in sent))        # one message: the worker wakes once
+    except OSError:
+        pass                          # it died: its sentinel is ready, and _collect says so
 
 
 def _collect(worker, timeout, ended=True):
@@ -219,6 +245,11 @@ def _collect(worker, timeout, ended=True):
             worker.began = time.monotonic()
     except (EOFError, OSError):
         pass
+    if done:
+        now = time.monotonic()
+        if worker.collected:
+            worker.per_file = (now - worker.collected) / len(done)
+        worker.collected = now
     if not worker.held:
         return done, None
     if ended and not worker.process.is_alive():
