@@ -178,16 +178,16 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
         warnings += changes
     # The compiled core uses every core inside each step, so the steps run one after another.
     mesh, checks, labels, welded, repeated, weights = _closed(mesh, path, warnings)
-    solid = _solid(mesh, labels, checks.shells, path=path, repair=repair,
-                   self_intersection=self_intersection, weights=weights)
+    solid = solid_of(mesh, labels, checks.shells, path=path, repair=repair,
+                     self_intersection=self_intersection, weights=weights)
     moments = _core.integrate(solid.mesh.vertices, solid.mesh.faces, order=order, frame=solid.frame,
                               scaled=solid.scaled)
     warnings += solid.warnings
     moments, orientation = _outward(moments, solid, warnings)
     moments = _widened(moments, solid, welded, order)
-    overlap, overlap_warning = _overlap(solid, moments)
-    if overlap_warning:
-        warnings.append(overlap_warning)
+    overlap, overlap_note = overlap_warning(solid, moments)
+    if overlap_note:
+        warnings.append(overlap_note)
     check_dict = checks.as_dict()
     check_dict.update(repeated)
     check_dict.update(solid.checks)
@@ -200,7 +200,7 @@ def _checked_moments(mesh, *, path, order, repair, self_intersection):
                         f"{float(welded.moved.max()):.2g} (CAD noise) to close the surface; the error bounds "
                         "include the move")
     return Checked(moments, solid.mesh if solid.source is None else solid.source, check_dict, warnings,
-                   solid.resolved, overlap_warning)
+                   solid.resolved, overlap_note)
 
 
 def _outward(moments, solid, warnings):
@@ -238,14 +238,6 @@ def _closed(mesh, path, warnings):
         labels, n_shells = shells(mesh.faces, mesh.vertices.shape[0])
         checks = replace(checks, shells=n_shells)
     return mesh, checks, labels, welded, repeated, weights
-
-
-def _overlap(solid, moments):
-    return overlap_warning(solid, moments)
-
-
-def _solid(mesh, labels, n_shells, **options):
-    return solid_of(mesh, labels, n_shells, **options)
 
 
 def _widened(moments, solid, welded, order):
