@@ -10,7 +10,7 @@ The reference is the box's centre (a short number near it) where the
 compiled core confirms that subtracting it is exact for every coordinate — a
 reference inside the part leaves few faces whose plane passes near it, and
 little cancellation — else a point of the box that is provably exact for any
-coordinates in it (:func:`_reference_coordinate`).  The scale ``2**scale_exp``
+coordinates in it (both chosen in one compiled call, :func:`frame_of`).  The scale ``2**scale_exp``
 is the smallest power of two at least the largest extent.
 
 The range a part must lie in: in the frame, its box's volume (the product

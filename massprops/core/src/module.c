@@ -459,11 +459,11 @@ static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs
     static char *names[] = {"vertices", "faces", "reference", "scale_exp", "radius", "order", "area", "weights",
                             "threads", "double_double", "scaled", NULL};
     PyObject *vertex_object, *face_object, *reference, *weight_object = Py_None, *scaled_object = Py_None;
-    Py_buffer vertices, faces, weights, scaled;
+    Py_buffer vertices, faces, weights = {0}, scaled = {0};
     KernelInput in;
     KernelResult out;
     Failure failure = {0};
-    int scale_exp, order, area, threads, dd, status;
+    int scale_exp, order, area, threads, dd, status = 0, ran = 0;
     double radius;
     if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO!idipOip|O", names, &vertex_object, &face_object,
                                      &PyTuple_Type, &reference, &scale_exp, &radius, &order, &area, &weight_object,
@@ -474,50 +474,37 @@ static PyObject *core_integrate(PyObject *self, PyObject *args, PyObject *kwargs
     in.order = order;
     in.area_measure = area;
     in.threads = threads;
+    /* weights (one per face) and the vertices already in the frame (n x 3, used as they are: the
+     * caller vouches they are scaled()) are optional; every buffer is released in one place */
     if (weight_object != Py_None) {
-        if (!get_array(weight_object, &weights, ARRAY_F64, "weights")) {
-            PyBuffer_Release(&vertices);
-            PyBuffer_Release(&faces);
-            return NULL;
-        }
+        if (!get_array(weight_object, &weights, ARRAY_F64, "weights"))
+            goto release;
         if (weights.len / 8 != in.m) {
-            PyBuffer_Release(&weights);
-            PyBuffer_Release(&vertices);
-            PyBuffer_Release(&faces);
             PyErr_SetString(PyExc_ValueError, "weights: expected one per face");
-            return NULL;
+            goto release;
         }
         in.weights = weights.buf;
     }
-    /* the vertices already in the frame (n x 3), used as they are: the caller vouches they are scaled() */
     if (scaled_object != Py_None) {
-        if (!get_array(scaled_object, &scaled, ARRAY_F64, "scaled")) {
-            if (weight_object != Py_None)
-                PyBuffer_Release(&weights);
-            PyBuffer_Release(&vertices);
-            PyBuffer_Release(&faces);
-            return NULL;
-        }
+        if (!get_array(scaled_object, &scaled, ARRAY_F64, "scaled"))
+            goto release;
         if (scaled.len != vertices.len) {
-            PyBuffer_Release(&scaled);
-            if (weight_object != Py_None)
-                PyBuffer_Release(&weights);
-            PyBuffer_Release(&vertices);
-            PyBuffer_Release(&faces);
             PyErr_SetString(PyExc_ValueError, "scaled: expected one row per vertex");
-            return NULL;
+            goto release;
         }
         in.scaled = scaled.buf;
     }
     Py_BEGIN_ALLOW_THREADS
     status = dd ? integrate_faces_dd(&in, &out, &failure) : integrate_faces(&in, &out, &failure);
     Py_END_ALLOW_THREADS
-    if (weight_object != Py_None)
-        PyBuffer_Release(&weights);
-    if (scaled_object != Py_None)
-        PyBuffer_Release(&scaled);
+    ran = 1;
+release:
+    PyBuffer_Release(&weights);                 /* a buffer never taken (obj NULL) is left as it is */
+    PyBuffer_Release(&scaled);
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&faces);
+    if (!ran)
+        return NULL;
     if (status)
         return raise_failure(&failure, NULL);
     return Py_BuildValue("{sdsds(ddd)sds(dddddd)sdsdsdsLsL}", "det_sum", out.det_sum, "det_error", out.det_error,
@@ -614,23 +601,6 @@ static PyObject *core_bounding_box(PyObject *self, PyObject *args)
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&view);
     return Py_BuildValue("((ddd)(ddd))", low[0], low[1], low[2], high[0], high[1], high[2]);
-}
-
-static PyObject *core_shift_is_exact(PyObject *self, PyObject *args)
-{
-    PyObject *object;
-    Py_buffer view;
-    double centre[3];
-    int exact[3];
-    if (!PyArg_ParseTuple(args, "O(ddd)", &object, &centre[0], &centre[1], &centre[2])
-            || !get_array(object, &view, ARRAY_F64, "vertices"))
-        return NULL;
-    Py_BEGIN_ALLOW_THREADS
-    shift_is_exact(view.buf, view.len / 24, centre, exact);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&view);
-    return Py_BuildValue("(OOO)", exact[0] ? Py_True : Py_False, exact[1] ? Py_True : Py_False,
-                         exact[2] ? Py_True : Py_False);
 }
 
 static PyObject *core_scale_snapped(PyObject *self, PyObject *args)
@@ -741,7 +711,6 @@ static PyMethodDef methods[] = {
     {"shell_determinants", core_shell_determinants, METH_VARARGS,
      "shell_determinants(vertices, faces, labels, shells, reference, scale_exp) -> (det_sum, det_error)"},
     {"bounding_box", core_bounding_box, METH_VARARGS, "bounding_box(vertices) -> (low, high)"},
-    {"shift_is_exact", core_shift_is_exact, METH_VARARGS, "shift_is_exact(vertices, centre) -> 3 bools"},
     {"scale_snapped", core_scale_snapped, METH_VARARGS,
      "scale_snapped(vertices, reference, scale_exp, smallest) -> (scaled, rows with a value below smallest taken as 0)"},
     {"largest_squared_distance", core_largest_squared_distance, METH_VARARGS,
