@@ -126,7 +126,7 @@ class ExactGeometry:
         return out.view(bool)
 
     def intersections(self, faces, shells, n_shells, *, within, between, active=None, max_examples=8,
-                      threads=None):
+                      closed=False, threads=None):
         """Which faces meet, through a hierarchical grid and exact tests.
 
         Parameters
@@ -143,6 +143,8 @@ class ExactGeometry:
         max_examples : int
             Self-intersecting face pairs to keep as ``examples``; -1 keeps every
             meeting pair, within shells and between them.
+        closed : bool
+            Every edge is used as often in each direction (see :meth:`crossing_pairs`).
 
         Returns
         -------
@@ -156,7 +158,7 @@ class ExactGeometry:
                   else np.ascontiguousarray(active, dtype=np.uint8))
         flags, examples, found, candidates, tests, shells_certified, vertices_certified, pinched = _extension().pairs(
             self.vertices, faces, shells, active, max(1, int(n_shells)), bool(within), bool(between),
-            int(max_examples), int(threads))
+            int(max_examples), int(threads), bool(closed))
         found = np.frombuffer(found, dtype=np.int64).reshape(-1, 4)
         if found.shape[0] > 1:
             # Each shell pair once, with the faces found first (the search's order does not depend on threads).
@@ -169,7 +171,7 @@ class ExactGeometry:
                              found[:, :2].copy(), found[:, 2:].copy(), int(candidates), int(tests),
                              int(shells_certified), int(vertices_certified), None if pinched < 0 else int(pinched))
 
-    def crossing_pairs(self, faces, shells=None, n_shells=1, *, threads=None):
+    def crossing_pairs(self, faces, shells=None, n_shells=1, *, closed=False, threads=None):
         """Every pair of faces that meet beyond the vertices and edges they share (by index).
 
         Faces that share vertices meet only if they fold over each other
@@ -182,6 +184,13 @@ class ExactGeometry:
             Shell labels (``0 .. n_shells - 1``).  Each shell may be certified
             embedded as a whole, which spares the search within it; the pairs
             are the same as without labels.
+        closed : bool
+            The caller guarantees that every edge is used as often in each
+            direction (a closed, consistently wound surface, as
+            :func:`massprops.mesh.surface.check_shells` checks).  A one-shell
+            mesh star-shaped about its centroid is then certified from its
+            faces alone (a degree count), without each vertex's faces; the
+            answers are the same.
 
         Returns
         -------
@@ -199,7 +208,7 @@ class ExactGeometry:
         one = shells is None or n_shells <= 1
         shells = None if one else np.ascontiguousarray(shells, dtype=np.int64)
         found = _extension().pairs(self.vertices, faces, shells, None, 1 if one else int(n_shells), True, not one, -1,
-                                   int(threads))
+                                   int(threads), bool(closed))
         pairs = np.frombuffer(found[1], dtype=np.int64).reshape(-1, 2)
         pinched = None if found[7] < 0 else int(found[7])
         if pairs.shape[0] <= 1:

@@ -84,7 +84,8 @@ def resolve_shells(mesh, labels, n_shells, *, check_self, path=None, repair=Fals
     if not check_self and n_shells == 1 and not repeated:
         return Solid(mesh, {"self_intersection": "not checked"})
     geometry = _geometry(vertices)
-    pairs, pinched = geometry.crossing_pairs(faces, labels, n_shells)
+    # closed: check_shells found every edge used as often each way; faces merged with weights need not be
+    pairs, pinched = geometry.crossing_pairs(faces, labels, n_shells, closed=weights is None)
     # A shell of faces that share vertices is one body only when its faces turn once around each vertex;
     # bodies that touch at a vertex or an edge (perhaps one wound inward) are told apart by the arrangement.
     if pairs.size or repeated or pinched != 0:

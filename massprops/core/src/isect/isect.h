@@ -50,6 +50,8 @@ typedef struct {
     int64_t certified_vertices, certified_shells;
     int64_t max_degree;
     int one_shell;            /* every face is of shell 0 (labels are below n_shells, checked by the caller) */
+    int by_degree;            /* the one shell certified by its degree (stars.c): no incidences (begin, ring,
+                               * flag NULL), and every vertex a face uses has its faces in one cycle */
 } Stars;
 
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
@@ -58,9 +60,12 @@ typedef struct {
 int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
                 int64_t n_shells, const uint8_t *wanted, int threads);
 /* The same; with `lazy`, the shells' certificates and the cycles only: no vertex's star is
- * certified until stars_certify_corners asks for it. */
+ * certified until stars_certify_corners asks for it.  With `closed` (lazy, one shell: the caller
+ * guarantees that every edge of the faces is used as often in each direction), the shell may be
+ * certified by its degree, and then nothing else is built (by_degree): only for a caller that
+ * needs no stars once the shell is certified. */
 int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
-                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy);
+                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy, int closed);
 /* Star certificates (as stars_build gives them) for the corners of the faces with take[t] set;
  * 0, or -1 when memory ran out (then fewer are certified).  Does not depend on the thread count. */
 int stars_certify_corners(Stars *s, const int64_t *shell, const uint8_t *take, int threads);
@@ -171,11 +176,12 @@ typedef struct {
 } Found;
 
 /* Pairs of faces that meet: within a shell (other than along what they share) when `within`,
- * between shells when `between`.  shell NULL: every face is of shell 0 (n_shells 1); active
+ * between shells when `between`.  `closed`: every edge of the faces is used as often in each
+ * direction (the caller checked it; a one-shell search may then certify the shell by its degree).  shell NULL: every face is of shell 0 (n_shells 1); active
  * NULL: every face is active.  0, or -1 when memory ran out.  The result does not depend on the
  * thread count. */
 int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active, int64_t n,
-                 int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int threads,
+                 int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int closed, int threads,
                  Found *out, Stars *stars);
 void found_free(Found *f);
 

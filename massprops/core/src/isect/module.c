@@ -113,9 +113,9 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
 {
     PyObject *vo, *fo, *so, *ao;
     Py_ssize_t n_shells, max_examples;
-    int within, between, threads;
-    if (!PyArg_ParseTuple(args, "OOOOnppni", &vo, &fo, &so, &ao, &n_shells, &within, &between, &max_examples,
-                          &threads))
+    int within, between, threads, closed = 0;
+    if (!PyArg_ParseTuple(args, "OOOOnppni|p", &vo, &fo, &so, &ao, &n_shells, &within, &between, &max_examples,
+                          &threads, &closed))
         return NULL;
     if (n_shells < 1 || n_shells >= ((Py_ssize_t)1 << 31) || max_examples < -1) {
         PyErr_SetString(PyExc_ValueError, "shell count or example count out of range");
@@ -157,7 +157,7 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
             bad = bad_shells(sb.buf, m, n_shells);
         if (!bad)
             status = search_pairs(vb.buf, fb.buf, sb.buf, ab.buf, n, m, n_shells, within, between, max_examples,
-                                  threads, &found, &stars);
+                                  closed, threads, &found, &stars);
         Py_END_ALLOW_THREADS
     }
     if (bad)
@@ -170,7 +170,7 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
         PyObject *pairs = PyBytes_FromStringAndSize((const char *)found.found, 32 * found.n_found);
         /* Vertices whose faces do not turn once around them (a pinch, an edge of more than two faces):
          * -1 when the stars were not built (then nothing is known). */
-        long long pinched = -1;
+        long long pinched = stars.by_degree ? 0 : -1;
         if (stars.flag) {
             pinched = 0;
             for (Py_ssize_t v = 0; v < n; v++)
@@ -671,7 +671,8 @@ static PyMethodDef methods[] = {
     {"degenerate", py_degenerate, METH_VARARGS,
      "degenerate(vertices, faces, out): out[t] = 1 where face t has zero area, exactly."},
     {"pairs", py_pairs, METH_VARARGS,
-     "pairs(vertices, faces, shell (None: all of shell 0), active (None: all), n_shells, within, between, max_examples (-1: every meeting pair, within and between shells), threads)\n"
+     "pairs(vertices, faces, shell (None: all of shell 0), active (None: all), n_shells, within, between, max_examples (-1: every meeting pair, within and between shells), threads,\n"
+     "closed=False (every edge used as often each way: a one-shell search may certify the shell by its degree))\n"
      "-> (self_found bytes, examples int64 pairs, found int64 quads, candidates, tests, certified shells,\n"
      "certified vertices, vertices whose faces do not turn once around them or -1)"},
     {"certificates", py_certificates, METH_VARARGS,

@@ -708,8 +708,20 @@ done:
     return status;
 }
 
+/* An empty result; 0, or -1 when memory ran out (then freed). */
+static int found_nothing(Found *out, int64_t n_shells)
+{
+    out->self_found = calloc(n_shells, 1);
+    out->examples = malloc(16);
+    out->found = malloc(32);
+    if (out->self_found && out->examples && out->found)
+        return 0;
+    found_free(out);
+    return -1;
+}
+
 int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const uint8_t *active, int64_t n,
-                 int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int threads,
+                 int64_t m, int64_t n_shells, int within, int between, int64_t max_examples, int closed, int threads,
                  Found *out, Stars *stars)
 {
     memset(out, 0, sizeof(*out));
@@ -725,12 +737,17 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         for (int64_t t = 0; n_shells > 1 && t < m; t++)
             wanted[shell[t]] |= active ? active[t] : 1;
         /* out of memory for the certificates: every pair is tested */
-        have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1) == 0;
+        /* certified by its degree (closed, one shell, no pairs between shells): no stars are built,
+         * and none is needed after */
+        have_stars = stars_build_lazy(stars, V, F, n, m, shell, n_shells, wanted, threads, 1,
+                                      closed && n_shells == 1 && !between) == 0;
         free(wanted);
     }
     /* Faces whose every pair is certified take no part unless other shells may meet them.  take
      * NULL: every face (one shell, no active flags: no byte a face written). */
     int64_t taken = 0;
+    if (have_stars && n_shells == 1 && !between && stars->shell_embedded[0])
+        return found_nothing(out, n_shells);     /* one shell certified as a whole: no face is searched */
     int keep_all = n_shells == 1 && (between || !have_stars || !stars->shell_embedded[0]);
     uint8_t *take = keep_all && !active ? NULL : malloc(m ? m : 1);
     if (!take && !(keep_all && !active))
@@ -785,11 +802,7 @@ int search_pairs(const double *V, const int64_t *F, const int64_t *shell, const 
         s.embedded = have_stars ? stars->shell_embedded : NULL;
         status = run_search(&s, threads, out);
     } else if (status == 0) {
-        out->self_found = calloc(n_shells, 1);
-        out->examples = malloc(16);
-        out->found = malloc(32);
-        if (!out->self_found || !out->examples || !out->found)
-            status = -1;
+        status = found_nothing(out, n_shells);
     }
     grid_free(&g);
     if (status < 0)

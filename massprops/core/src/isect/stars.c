@@ -75,6 +75,55 @@
  * convex decompositions, spheres, bumped spheres) pass, and then no pair of
  * the shell is tested at all.
  *
+ * DEGREE CERTIFICATE.  When the caller guarantees that every edge of the faces
+ * is used as often in each direction (a closed surface: massprops checks this
+ * before the search), a one-shell S is certified by its faces alone, without
+ * any vertex's star:
+ *   (a) as above, every face of S has orient3d(a, b, e, c) of one strict sign s;
+ *   (d) some ray R = {c + t u : t > 0}, u = +-e_k, meets no edge of S, and
+ *       exactly one face of S.
+ * Then S is embedded, every vertex's faces form one cycle (no pinch) and (b)
+ * and (c) hold, so the shell certificate gives the same answer.
+ * Proof.  Pair the faces at each edge pq, each face using p -> q with one using
+ * q -> p (they are equally many), and glue paired faces along pq; at each
+ * vertex the glued faces form one or more cycles (face (v, x, y) is followed by
+ * the face paired with it along v y); give each cycle its own copy of v.  This
+ * is a closed surface S' (its components closed orientable surfaces) that
+ * maps onto the faces of S, with E' = 3F/2 edges and V' >= V vertices.  Let
+ * r(x) = (x - c) / |x - c| on S' (c is on no face's plane by (a)).  As in the
+ * shell certificate's proof, by (a) r is injective on each face with one
+ * orientation for all faces, and maps the two faces at each glued edge to the
+ * two sides of the plane through it and c; at a vertex copy v, the faces of
+ * its cycle (v, a_i, a_{i+1}) map to sectors at r(v) of angle in (0, pi),
+ * det[v - c, a_i - v, a_{i+1} - v] = orient3d(v, a_i, a_{i+1}, c) of sign s
+ * for all of them, so they turn one way, w_v >= 1 times in all.  So r is a
+ * branched covering of the sphere, locally z -> z^{w_v} at v and a local
+ * homeomorphism elsewhere, preserving (or, for the other s, reversing)
+ * orientation everywhere.  Over the points that are not the image of a vertex
+ * copy the number of preimages is then constant, d (their complement in the
+ * sphere is connected), each component of S' covers the sphere (an open and
+ * closed map), and near v there are w_v preimages of the points near r(v), so
+ * 1 <= w_v <= d.  u is not the image of any vertex or edge (R meets none), so
+ * its preimages are the points where R crosses a face's interior: d = 1 by (d).
+ * Hence S' is connected and r: S' -> sphere is a bijective local
+ * homeomorphism, a homeomorphism.  Injectivity has consequences: two copies of
+ * one vertex, or two faces paired at one edge with two others (an edge used
+ * more than twice), would be distinct points of S' with one image, so every
+ * vertex has one cycle, every edge two faces: S' is S as indexed, a sphere
+ * (V - F/2 = 2, (c)), every vertex manifold with its link turning once about
+ * the line c v (w_v = 1, so (2) holds: a monotone turn of angle 2 pi, in steps
+ * below pi, enters the open half-plane y > 0 exactly once), which is (b).  Two
+ * faces with a common point x have r(x) in common, so x is one point of S',
+ * in what they share.  []
+ * (d) is counted in the same pass as (a), for the three axes at once: with
+ * N = (b - a) x (e - a), the line c + t e_k meets face (a, b, e)'s plane at
+ * t = orient3d(a, b, e, c) / N_k, and crosses the face where c's projection
+ * dropping axis k lies strictly inside the face's; a face it meets on an edge
+ * or corner has c's projection on the projected boundary (and N_k != 0: a
+ * plane parallel to the line does not hold c, so it does not meet it).  The
+ * six rays are tried in a fixed order; a ray that some face ahead of c touches
+ * on its boundary is skipped, and when all six are, nothing is certified here.
+ *
  * A certificate that fails proves nothing and costs nothing but its time:
  * the pairs it would have covered are tested exactly.
  */
@@ -372,6 +421,12 @@ typedef struct {
     int certify_failed;       /* the second vertex pass: local certificates for shells that failed (b) */
     int lazy;                 /* no star certificates here: stars_certify_corners gives them on demand */
     int64_t certified;        /* vertices certified by their stars */
+    /* the degree certificate (one shell, closed): per axis k and sign of the face normal's k-th
+     * component (0: positive, 1: negative), the faces whose projection dropping k holds the centre
+     * strictly inside (crossed), and whether any holds it on its boundary (touched) */
+    int by_degree;
+    int64_t crossed[3][2];
+    uint8_t touched[3][2];
 } ShellWork;
 
 #define SUMS 7
@@ -462,7 +517,34 @@ static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
     }
 }
 
-/* Condition (a): one strict sign of orient3d(face, centre) per shell. */
+/* For the degree certificate: where the line through c along each axis k meets face (a, b, e),
+ * added to crossed / touched (see ShellWork).  The line meets the face's plane at c + t e_k with
+ * t = orient3d(a, b, e, c) / N_k, N = (b - a) x (e - a), whose k-th component is porient(k, a, b, e)
+ * (negated for k = 1, whose projection keeps (x, z)).  The sub-triangles' orientations
+ * porient(k, a, b, c), (b, e, c), (e, a, c) add up to porient(k, a, b, e): all of one strict sign,
+ * c's projection is strictly inside; some zero and none of the other sign, on the boundary; all
+ * zero, N_k = 0 and the line, parallel to a plane that does not hold c, misses the face. */
+static void ray_face(P a, P b, P e, P c, int64_t crossed[3][2], uint8_t touched[3][2])
+{
+    for (int k = 0; k < 3; k++) {
+        int u = k == 0 ? 1 : 0, v = k == 2 ? 1 : 2;
+        if (c[u] < dmin(a[u], dmin(b[u], e[u])) || c[u] > dmax(a[u], dmax(b[u], e[u]))
+            || c[v] < dmin(a[v], dmin(b[v], e[v])) || c[v] > dmax(a[v], dmax(b[v], e[v])))
+            continue;
+        int s1 = porient(k, a, b, c), s2 = porient(k, b, e, c), s3 = porient(k, e, a, c);
+        int positive = (s1 > 0) + (s2 > 0) + (s3 > 0), negative = (s1 < 0) + (s2 < 0) + (s3 < 0);
+        if ((positive && negative) || (!positive && !negative))
+            continue;
+        int normal = (positive ? 1 : -1) * (k == 1 ? -1 : 1);     /* the sign of N_k */
+        if (positive + negative == 3)
+            crossed[k][normal > 0 ? 0 : 1]++;
+        else
+            touched[k][normal > 0 ? 0 : 1] = 1;
+    }
+}
+
+/* Condition (a): one strict sign of orient3d(face, centre) per shell; with by_degree, the rays'
+ * counts too. */
 static void sign_block(void *ctx, int worker, int64_t block)
 {
     ShellWork *w = ctx;
@@ -471,6 +553,8 @@ static void sign_block(void *ctx, int worker, int64_t block)
     int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
     int64_t current = -1;
     int8_t seen = SIGN_NONE;
+    int64_t crossed[3][2] = {{0}};
+    uint8_t touched[3][2] = {{0}};
     for (int64_t t = block * FACE_BLOCK; t < end; t++) {
         int64_t s = shell_at(w->shell, t);
         if (!w->wanted[s])
@@ -484,13 +568,37 @@ static void sign_block(void *ctx, int worker, int64_t block)
             continue;
         if (t + AHEAD < end)
             prefetch_corners(V, F, t + AHEAD);
-        int o = orient3d(V + 3 * F[3 * t], V + 3 * F[3 * t + 1], V + 3 * F[3 * t + 2], w->centre + 3 * s);
+        P a = V + 3 * F[3 * t], b = V + 3 * F[3 * t + 1], e = V + 3 * F[3 * t + 2], c = w->centre + 3 * s;
+        int o = orient3d(a, b, e, c);
         if (o == 0 || (seen != SIGN_NONE && o != seen))
             seen = SIGN_MIXED;
         else
             seen = (int8_t)o;
+        if (w->by_degree && seen != SIGN_MIXED)
+            ray_face(a, b, e, c, crossed, touched);
     }
     merge_sign(w->sign, current, seen);
+    for (int k = 0; w->by_degree && k < 3; k++)
+        for (int j = 0; j < 2; j++) {
+            if (crossed[k][j])
+                __atomic_fetch_add(&w->crossed[k][j], crossed[k][j], __ATOMIC_RELAXED);
+            if (touched[k][j])
+                __atomic_store_n(&w->touched[k][j], 1, __ATOMIC_RELAXED);
+        }
+}
+
+/* The degree certificate's decision for the one shell, of sign `sign` (see the file's comment): the
+ * first of the six rays (+x, -x, +y, -y, +z, -z from c) that no face meets on its boundary crosses
+ * exactly one face. */
+static int degree_certified(const ShellWork *w, int sign)
+{
+    for (int k = 0; k < 3; k++)
+        for (int direction = 1; direction >= -1; direction -= 2) {
+            int j = sign * direction > 0 ? 0 : 1;      /* ahead of c: N_k of the sign of orient3d * direction */
+            if (!w->touched[k][j])
+                return w->crossed[k][j] == 1;
+        }
+    return 0;
 }
 
 /* The shell of v's star, or -1 when its faces lie in several shells. */
@@ -580,7 +688,8 @@ static void vertex_block(void *ctx, int worker, int64_t block)
     __atomic_fetch_add(&w->certified, certified, __ATOMIC_RELAXED);
 }
 
-static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8_t *wanted, int threads, int lazy)
+static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8_t *wanted, int threads, int lazy,
+                   int closed)
 {
     ShellWork w;
     memset(&w, 0, sizeof(w));
@@ -589,11 +698,8 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     w.shell = shell;
     w.wanted = wanted;
     w.n_shells = n_shells;
+    w.by_degree = closed && lazy && n_shells == 1 && wanted[0];
     int workers = threads < 1 ? 1 : threads;
-    int64_t max_degree = 3;
-    for (int64_t v = 0; v < s->n; v++)
-        max_degree = star_degree(s, v) > max_degree ? star_degree(s, v) : max_degree;
-    s->max_degree = max_degree;
     w.origin = malloc(sizeof(int64_t) * n_shells);
     w.sums = calloc((size_t)workers * n_shells * SUMS, sizeof(double));
     w.centre = malloc(sizeof(double) * 3 * n_shells);
@@ -602,15 +708,9 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     w.faces = calloc(n_shells, sizeof(int64_t));
     w.vertices = calloc(n_shells, sizeof(int64_t));
     w.scratch = calloc(workers, sizeof(Scratch));
-    int status = -1;
+    int status = -1, ready = 0;
     if (!w.origin || !w.sums || !w.centre || !w.sign || !w.failed || !w.faces || !w.vertices || !w.scratch)
         goto done;
-    int ready = 0;
-    while (ready < workers && scratch_init(&w.scratch[ready], max_degree) == 0)
-        ready++;
-    if (ready == 0)
-        goto done;
-    workers = ready;                   /* fewer workers: the same certificates */
     for (int64_t sh = 0; sh < n_shells; sh++)
         w.origin[sh] = -1;
     for (int64_t t = 0, found = 0; t < s->m && found < n_shells; t++)
@@ -641,6 +741,25 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
                 w.sign[sh] = SIGN_MIXED;
     }
     parallel_workers(workers, face_blocks, sign_block, &w);
+    if (w.by_degree && (w.sign[0] == 1 || w.sign[0] == -1) && degree_certified(&w, w.sign[0])) {
+        /* the whole search's answer for the shell: embedded, every vertex one cycle; no vertex table */
+        s->shell_embedded[0] = 1;
+        s->certified_shells = 1;
+        s->by_degree = 1;
+        status = 0;
+        goto done;
+    }
+    if (build_incidences(s, threads) < 0)
+        goto done;
+    int64_t max_degree = 3;
+    for (int64_t v = 0; v < s->n; v++)
+        max_degree = star_degree(s, v) > max_degree ? star_degree(s, v) : max_degree;
+    s->max_degree = max_degree;
+    while (ready < workers && scratch_init(&w.scratch[ready], max_degree) == 0)
+        ready++;
+    if (ready == 0)
+        goto done;
+    workers = ready;                   /* fewer workers: the same certificates */
     parallel_workers(workers, vertex_blocks, vertex_block, &w);
     int again = 0;
     for (int64_t sh = 0; sh < n_shells; sh++) {
@@ -656,7 +775,7 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     s->certified_vertices = w.certified;
     status = 0;
 done:
-    for (int k = 0; w.scratch && k < workers; k++)
+    for (int k = 0; w.scratch && k < ready; k++)
         scratch_free(&w.scratch[k]);
     free(w.origin), free(w.sums), free(w.centre), free(w.sign), free(w.failed), free(w.faces), free(w.vertices),
         free(w.scratch);
@@ -666,11 +785,11 @@ done:
 int stars_build(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
                 int64_t n_shells, const uint8_t *wanted, int threads)
 {
-    return stars_build_lazy(s, V, F, n, m, shell, n_shells, wanted, threads, 0);
+    return stars_build_lazy(s, V, F, n, m, shell, n_shells, wanted, threads, 0, 0);
 }
 
 int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int64_t m, const int64_t *shell,
-                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy)
+                     int64_t n_shells, const uint8_t *wanted, int threads, int lazy, int closed)
 {
     memset(s, 0, sizeof(*s));
     s->V = V;
@@ -679,8 +798,7 @@ int stars_build_lazy(Stars *s, const double *V, const int64_t *F, int64_t n, int
     s->m = m;
     s->one_shell = n_shells == 1;
     s->shell_embedded = calloc(n_shells ? n_shells : 1, 1);
-    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || build_incidences(s, threads) < 0
-        || certify(s, shell, n_shells, wanted, threads, lazy) < 0) {
+    if (!s->shell_embedded || m >= ((int64_t)1 << 30) || certify(s, shell, n_shells, wanted, threads, lazy, closed) < 0) {
         stars_free(s);
         return -1;
     }
