@@ -49,8 +49,9 @@ def _in_process(path, repeats):
     steps = {
         "unused-vertex test": lambda: without_unused_vertices(mesh),
         "between shells (one shell)": lambda: resolve_shells(mesh, labels, 1, check_self=False),
+        # closed: the file's surface is closed, as resolve_shells tells the search after its checks
         "self-intersection search": lambda: ExactGeometry(mesh.vertices).intersections(
-            mesh.faces, labels, 1, within=True, between=False),
+            mesh.faces, labels, 1, within=True, between=False, closed=True),
     }
     best = {}
     for name, step in steps.items():
