@@ -524,12 +524,18 @@ static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
  * porient(k, a, b, c), (b, e, c), (e, a, c) add up to porient(k, a, b, e): all of one strict sign,
  * c's projection is strictly inside; some zero and none of the other sign, on the boundary; all
  * zero, N_k = 0 and the line, parallel to a plane that does not hold c, misses the face. */
-static void ray_face(P a, P b, P e, P c, int64_t crossed[3][2], uint8_t touched[3][2])
+static inline void ray_face(P a, P b, P e, P c, int64_t crossed[3][2], uint8_t touched[3][2])
 {
+    /* within the face's box on axis j (bit j): the line along k can meet the face only with the
+     * two other bits set, and most faces have at most one */
+    int within = 0;
+    for (int j = 0; j < 3; j++)
+        within |= (c[j] >= dmin(a[j], dmin(b[j], e[j])) && c[j] <= dmax(a[j], dmax(b[j], e[j]))) << j;
+    if (within == 0 || within == 1 || within == 2 || within == 4)
+        return;
     for (int k = 0; k < 3; k++) {
         int u = k == 0 ? 1 : 0, v = k == 2 ? 1 : 2;
-        if (c[u] < dmin(a[u], dmin(b[u], e[u])) || c[u] > dmax(a[u], dmax(b[u], e[u]))
-            || c[v] < dmin(a[v], dmin(b[v], e[v])) || c[v] > dmax(a[v], dmax(b[v], e[v])))
+        if (!(within >> u & 1) || !(within >> v & 1))
             continue;
         int s1 = porient(k, a, b, c), s2 = porient(k, b, e, c), s3 = porient(k, e, a, c);
         int positive = (s1 > 0) + (s2 > 0) + (s3 > 0), negative = (s1 < 0) + (s2 < 0) + (s3 < 0);
