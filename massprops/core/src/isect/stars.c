@@ -80,7 +80,7 @@
  * before the search), a one-shell S is certified by its faces alone, without
  * any vertex's star:
  *   (a) as above, every face of S has orient3d(a, b, e, c) of one strict sign s;
- *   (d) some ray R = {c + t u : t > 0}, u = +-e_k, meets no edge of S, and
+ *   (d) some ray R = {c + t u : t > 0} (u != 0) meets no edge of S, and
  *       exactly one face of S.
  * Then S is embedded, every vertex's faces form one cycle (no pinch) and (b)
  * and (c) hold, so the shell certificate gives the same answer.
@@ -122,7 +122,10 @@
  * or corner has c's projection on the projected boundary (and N_k != 0: a
  * plane parallel to the line does not hold c, so it does not meet it).  The
  * six rays are tried in a fixed order; a ray that some face ahead of c touches
- * on its boundary is skipped, and when all six are, nothing is certified here.
+ * on its boundary is skipped.  When all six are (a part symmetric about its
+ * centre: a box's rays hit its faces' diagonals), one more pass counts the two
+ * rays of an oblique line c + t d the same way (line_block), and when both of
+ * those are touched too, nothing is certified here.
  *
  * A certificate that fails proves nothing and costs nothing but its time:
  * the pairs it would have covered are tested exactly.
