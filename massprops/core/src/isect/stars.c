@@ -415,7 +415,9 @@ typedef struct {
     const uint8_t *wanted;
     int64_t n_shells;
     int64_t *origin;          /* per shell: a vertex of it, the centre's sums are taken about */
-    double *sums;             /* per worker, per shell: volume, volume-weighted and plain corner sums */
+    double *sums;             /* per block (few blocks and shells) or else per worker, per shell: volume,
+                               * volume-weighted and plain corner sums */
+    int sums_per_block;
     double *centre;           /* per shell */
     int8_t *sign;             /* per shell: SIGN_NONE, 1, -1, SIGN_MIXED */
     uint8_t *failed;          /* per shell: a vertex fails (b) */
@@ -472,7 +474,7 @@ static void centre_block(void *ctx, int worker, int64_t block)
     ShellWork *w = ctx;
     const double *V = w->s->V;
     const int64_t *F = w->s->F;
-    double *sums = w->sums + (size_t)worker * w->n_shells * SUMS;
+    double *sums = w->sums + (size_t)(w->sums_per_block ? block : worker) * w->n_shells * SUMS;
     int64_t end = (block + 1) * FACE_BLOCK < w->s->m ? (block + 1) * FACE_BLOCK : w->s->m;
     int64_t current = -1, count = 0;
     /* the current shell's sums, added to the worker's row when the shell changes (the rows of two
@@ -789,7 +791,12 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
     w.by_degree = closed && lazy && n_shells == 1 && wanted[0];
     int workers = threads < 1 ? 1 : threads;
     w.origin = malloc(sizeof(int64_t) * n_shells);
-    w.sums = calloc((size_t)workers * n_shells * SUMS, sizeof(double));
+    /* the sums of each block apart, added in block order, when that is little memory (always for one
+     * shell): the centre then does not depend on which thread summed which block */
+    int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
+    w.sums_per_block = face_blocks * n_shells <= ((int64_t)1 << 16);
+    int64_t rows = w.sums_per_block ? face_blocks : workers;
+    w.sums = calloc((size_t)(rows ? rows : 1) * n_shells * SUMS, sizeof(double));
     w.centre = malloc(sizeof(double) * 3 * n_shells);
     w.sign = calloc(n_shells, 1);
     w.failed = calloc(n_shells, 1);
@@ -806,11 +813,10 @@ static int certify(Stars *s, const int64_t *shell, int64_t n_shells, const uint8
             w.origin[shell_at(shell, t)] = s->F[3 * t];
             found++;
         }
-    int64_t face_blocks = (s->m + FACE_BLOCK - 1) / FACE_BLOCK, vertex_blocks = (s->n + VERTEX_BLOCK - 1) / VERTEX_BLOCK;
     parallel_workers(workers, face_blocks, centre_block, &w);
     for (int64_t sh = 0; sh < n_shells; sh++) {
         double row[SUMS] = {0};
-        for (int k = 0; k < workers; k++)
+        for (int64_t k = 0; k < rows; k++)
             for (int j = 0; j < SUMS; j++)
                 row[j] += w.sums[((size_t)k * n_shells + sh) * SUMS + j];
         P o = w.origin[sh] >= 0 ? s->V + 3 * w.origin[sh] : NULL;
