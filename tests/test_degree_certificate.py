@@ -110,6 +110,24 @@ def test_spheres_pinched_together_are_found_pinched(shared):
     assert pairs == expected and pinched == shared and found.certified_shells == 0
 
 
+def test_spheres_sharing_an_edge_are_found_pinched():
+    """An octahedron inside another, both wound outward, sharing two adjacent corners and the edge between
+    them: that edge is used four times, twice each way (closed), the ray from the centre crosses two faces."""
+    points, faces = _octahedron(12)
+    inner, inner_faces = _octahedron(6)
+    index = {0: 0, 2: 2}                                      # the outer's +x and +y corners
+    for i, p in enumerate(inner):
+        if i not in index:
+            index[i] = len(points)
+            points.append(p)
+    faces = faces + [[index[v] for v in f] for f in inner_faces]
+    edges = [(f[i], f[(i + 1) % 3]) for f in faces for i in range(3)]
+    assert edges.count((0, 2)) == 2 and edges.count((2, 0)) == 2
+    expected = crossing_pairs(points, faces)
+    pairs, pinched, found = _closed_search(points, faces)
+    assert pairs == expected and pinched == 2 and found.certified_shells == 0
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.sampled_from([5, 7, 9, 11]), st.integers(1, 4), st.lists(st.integers(20, 90), min_size=11, max_size=11),
        st.lists(st.integers(5, 80), min_size=2, max_size=2), st.lists(st.integers(-9, 9), min_size=3, max_size=3),
