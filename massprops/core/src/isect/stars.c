@@ -222,14 +222,14 @@ typedef struct {
 typedef struct {
     int64_t *x, *y, *link;
     int64_t *next;
-    uint8_t *seen, *above;
+    uint8_t *above;
     uint32_t *ordered;
     Keyed *sorted, *spare;    /* above SMALL_DEGREE: the link's far corners sorted, and the sort's scratch */
 } Scratch;
 
 static void scratch_free(Scratch *sc)
 {
-    free(sc->x), free(sc->y), free(sc->link), free(sc->next), free(sc->seen), free(sc->above), free(sc->ordered),
+    free(sc->x), free(sc->y), free(sc->link), free(sc->next), free(sc->above), free(sc->ordered),
         free(sc->sorted), free(sc->spare);
 }
 
@@ -241,12 +241,11 @@ static int scratch_init(Scratch *sc, int64_t degree)
     sc->y = malloc(sizeof(int64_t) * k);
     sc->link = malloc(sizeof(int64_t) * k);
     sc->next = malloc(sizeof(int64_t) * k);
-    sc->seen = malloc(k);
     sc->above = malloc(k);
     sc->ordered = malloc(sizeof(uint32_t) * k);
     sc->sorted = degree > SMALL_DEGREE ? malloc(sizeof(Keyed) * k) : NULL;
     sc->spare = degree > SMALL_DEGREE ? malloc(sizeof(Keyed) * k) : NULL;
-    if (!sc->x || !sc->y || !sc->link || !sc->next || !sc->seen || !sc->above || !sc->ordered
+    if (!sc->x || !sc->y || !sc->link || !sc->next || !sc->above || !sc->ordered
         || (degree > SMALL_DEGREE && (!sc->sorted || !sc->spare))) {
         scratch_free(sc);
         return -1;
@@ -318,13 +317,13 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
             sc->next[i] = sorted[lo].index;
         }
     }
-    /* k steps through distinct faces back to the first: one cycle through all of them */
-    memset(sc->seen, 0, k);
+    /* back at the first face after k steps and not before: one cycle through all of them (the k
+     * faces on the way are distinct: a repeat among them would make the walk periodic from there,
+     * and it would pass the first face again before step k, or never reach it) */
     int64_t i = 0;
     for (int64_t step = 0; step < k; step++) {
-        if (sc->seen[i])
+        if (step > 0 && i == 0)
             return 0;
-        sc->seen[i] = 1;
         sc->ordered[step] = s->ring[b + i];
         sc->link[step] = sc->x[i];
         i = sc->next[i];
