@@ -57,6 +57,14 @@ class LazyGroup(click.Group):
         if "numpy" not in sys.modules:
             for name in BLAS_THREADS:
                 os.environ.setdefault(name, "1")
+        # The pipeline (and numpy) is loaded here, a few frames below the script, when a command is named
+        # (not for `massprops --help` alone).  Loaded from the group's callback, under click's frames, the
+        # imports' calls kept crossing a boundary of the interpreter's frame stack (CPython 3.11 keeps it in
+        # 16 KiB chunks, mapped and unmapped as a call crosses one): 1,800 mmap/munmap pairs and as many
+        # page faults, 5-8 ms of a 95 ms start (issue 24).  The callback's own import is then a no-op.
+        arguments = kwargs.get("args", args[0] if args else None)
+        if any(argument in COMMANDS for argument in (sys.argv[1:] if arguments is None else arguments)):
+            _load_pipeline()
         return super().__call__(*args, **kwargs)
 
     def invoke(self, ctx):
@@ -88,6 +96,17 @@ class LazyGroup(click.Group):
             raise
 
 
+def _load_pipeline():
+    """The pipeline every command runs (and numpy), loaded with the collector paused (massprops/__init__.py).
+
+    After the script chose the BLAS threads, before the command's options are parsed.  numpy first,
+    on its own: its imports nest deepest, and under massprops' own import chain they still crossed a
+    chunk of the frame stack (LazyGroup.__call__).
+    """
+    _load_quietly(lambda: __import__("numpy"))
+    from .. import mass_properties  # noqa: F401
+
+
 def _output_failed(exc):
     """Say that writing failed (unless the reader went away), and send what is still buffered nowhere."""
     if exc.errno != errno.EPIPE:
@@ -112,9 +131,7 @@ def main():
     # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
     if not os.environ.get("MASSPROPS_DEBUG"):
         warnings.filterwarnings("ignore", category=RuntimeWarning)
-    # The pipeline every command runs (and numpy), loaded with the collector paused (massprops/__init__.py),
-    # now: after the script chose the BLAS threads, before the command's options are parsed.
-    from .. import mass_properties  # noqa: F401
+    _load_pipeline()
     # What is loaded now (modules, classes, click's commands) lives until the process ends: the
     # cyclic garbage collector need not look at it again, during the command or at exit.
     gc.freeze()
