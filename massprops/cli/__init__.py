@@ -10,7 +10,6 @@ from __future__ import annotations
 import errno
 import gc
 import importlib
-import importlib.util
 import os
 import sys
 import warnings
@@ -81,6 +80,7 @@ class LazyGroup(click.Group):
             ctx.exit(1)
 
     def list_commands(self, ctx):
+        import importlib.util          # for help only: a wheel's start-up does not load it otherwise
         return [name for name, (module, _) in COMMANDS.items() if name not in HIDDEN and importlib.util.find_spec(
             f"{__name__}.{module}") is not None]
 
