@@ -57,10 +57,10 @@ class LazyGroup(click.Group):
             for name in BLAS_THREADS:
                 os.environ.setdefault(name, "1")
         # The pipeline (and numpy) is loaded here, a few frames below the script, when a command is named
-        # (not for `massprops --help` alone).  Loaded from the group's callback, under click's frames, the
+        # (not for `massprops --version`).  Loaded from the group's callback, under click's frames, the
         # imports' calls kept crossing a boundary of the interpreter's frame stack (CPython 3.11 keeps it in
         # 16 KiB chunks, mapped and unmapped as a call crosses one): 1,800 mmap/munmap pairs and as many
-        # page faults, 5-8 ms of a 95 ms start (issue 24).  The callback's own import is then a no-op.
+        # page faults, about 8 ms of a 97 ms start (issue 24).  The callback's own load is then a no-op.
         arguments = kwargs.get("args", args[0] if args else None)
         if any(argument in COMMANDS for argument in (sys.argv[1:] if arguments is None else arguments)):
             _load_pipeline()
