@@ -52,7 +52,7 @@ class LazyGroup(click.Group):
     """
 
     def __call__(self, *args, **kwargs):
-        """The ``massprops`` script (and ``python -m massprops``): one BLAS thread, then the command."""
+        """The ``massprops`` script (and ``python -m massprops``): one BLAS thread, the pipeline, the command."""
         if "numpy" not in sys.modules:
             for name in BLAS_THREADS:
                 os.environ.setdefault(name, "1")
