@@ -290,20 +290,47 @@ void bounding_box(const double *vertices, int64_t n, double low[3], double high[
     high[0] = hx, high[1] = hy, high[2] = hz;
 }
 
+/* Two vertices (six coordinates) at a time, with no branch, so that the loop vectorises: TwoSum's error
+ * is zero exactly when the difference is exact, and it is NaN when the sum is (the test before was
+ * `error != 0.0 || sum != sum`), so a coordinate is inexact exactly when its error's bits other than
+ * the sign are not all zero; those bits are or-ed into a word per coordinate, looked at every
+ * SHIFT_CHUNK vertices to stop once every axis is inexact. */
+#define SHIFT_CHUNK 512
+
+static inline uint64_t magnitude_bits(double x)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    return bits & 0x7FFFFFFFFFFFFFFFULL;
+}
+
 void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])
 {
-    int64_t v;
-    int i;
-    for (i = 0; i < 3; i++)
-        exact[i] = 1;
-    for (v = 0; v < n && (exact[0] | exact[1] | exact[2]); v++)
-        for (i = 0; i < 3; i++) {
-            double sum, error;
-            two_sum(vertices[3 * v + i], -centre[i], &sum, &error);
-            /* TwoSum's error is zero exactly when the difference is exact (NaN: inexact). */
-            if (error != 0.0 || sum != sum)
-                exact[i] = 0;
+    const double minus[6] = {-centre[0], -centre[1], -centre[2], -centre[0], -centre[1], -centre[2]};
+    uint64_t inexact[6] = {0, 0, 0, 0, 0, 0};
+    int64_t v = 0, start, last;
+    int i, j;
+    for (start = 0; start < n; start = last) {
+        last = n - start > SHIFT_CHUNK ? start + SHIFT_CHUNK : n;
+        for (v = start; v + 2 <= last; v += 2) {
+            const double *p = vertices + 3 * v;
+            for (j = 0; j < 6; j++) {
+                double sum, error;
+                two_sum(p[j], minus[j], &sum, &error);
+                inexact[j] |= magnitude_bits(error);
+            }
         }
+        if (v < last)                                  /* an odd vertex at the end */
+            for (i = 0; i < 3; i++) {
+                double sum, error;
+                two_sum(vertices[3 * v + i], minus[i], &sum, &error);
+                inexact[i] |= magnitude_bits(error);
+            }
+        if ((inexact[0] | inexact[3]) && (inexact[1] | inexact[4]) && (inexact[2] | inexact[5]))
+            break;
+    }
+    for (i = 0; i < 3; i++)
+        exact[i] = !(inexact[i] | inexact[i + 3]);
 }
 
 int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
