@@ -333,23 +333,45 @@ void shift_is_exact(const double *vertices, int64_t n, const double centre[3], i
         exact[i] = !(inexact[i] | inexact[i + 3]);
 }
 
+/* One coordinate scaled, snapped to zero below `smallest`; *tiny set when it was. */
+static inline double scaled_snapped(double x, double reference, int multiply, double factor, int scale_exp,
+                                    double smallest, int *tiny)
+{
+    double d = x - reference, y = multiply ? d * factor : ldexp(d, -scale_exp);
+    int snap = y != 0.0 && fabs(y) < smallest;
+    *tiny |= snap;
+    return snap ? 0.0 : y;
+}
+
 int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
                       double *out, int64_t *moved)
 {
     int64_t v, count = 0;
-    int i, multiply = scale_exp >= -1023 && scale_exp <= 1022;
+    int i, j, multiply = scale_exp >= -1023 && scale_exp <= 1022, any = 0;
     /* 2**-scale_exp when it is a normal double: one multiplication rounds as ldexp does (once, correctly) */
     double factor = multiply ? ldexp(1.0, -scale_exp) : 1.0;
+    if (multiply) {
+        /* two vertices at a time with no branch (vectorised); which vertices were snapped is found after,
+         * in the rare case that any was */
+        const double r[6] = {reference[0], reference[1], reference[2], reference[0], reference[1], reference[2]};
+        int tiny[6] = {0, 0, 0, 0, 0, 0};
+        for (v = 0; v + 2 <= n; v += 2)
+            for (j = 0; j < 6; j++)
+                out[3 * v + j] = scaled_snapped(vertices[3 * v + j], r[j], 1, factor, scale_exp, smallest, &tiny[j]);
+        for (j = 0; j < 6; j++)
+            any |= tiny[j];
+        for (; v < n; v++)
+            for (i = 0; i < 3; i++)
+                out[3 * v + i] = scaled_snapped(vertices[3 * v + i], reference[i], 1, factor, scale_exp, smallest,
+                                                &any);
+        if (!any)
+            return 0;
+    }
     for (v = 0; v < n; v++) {
         int tiny = 0;
-        for (i = 0; i < 3; i++) {
-            double d = vertices[3 * v + i] - reference[i], y = multiply ? d * factor : ldexp(d, -scale_exp);
-            if (y != 0.0 && fabs(y) < smallest) {
-                y = 0.0;
-                tiny = 1;
-            }
-            out[3 * v + i] = y;
-        }
+        for (i = 0; i < 3; i++)
+            out[3 * v + i] = scaled_snapped(vertices[3 * v + i], reference[i], multiply, factor, scale_exp, smallest,
+                                            &tiny);
         if (tiny)
             moved[count++] = v;
     }
