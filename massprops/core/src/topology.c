@@ -336,18 +336,21 @@ typedef void (*edge_fn)(void *ctx, int64_t low, int64_t high, int64_t uses, int6
 
 /* The edges of a vertex with many (a fan's centre), grouped in a table keyed by the higher vertex instead
  * of sorted: the same edges, uses and balances (counted in another order, which no count depends on).
- * 0, or -1 when there is no memory for the table (then the caller sorts). */
+ * 0, or -1 when the vertex has too many entries for the table's 16-bit counts or there is no memory
+ * for it (then the caller sorts). */
 static int group_hashed(const uint32_t *list, int64_t k, int64_t v, EdgeSummary *s)
 {
     typedef struct {
         uint32_t key;                      /* the higher vertex + 1; 0: an empty slot */
-        uint32_t uses, backward;
+        uint16_t uses, backward;           /* at most k < 65536 each */
     } Slot;
     int bits = 6;
     uint32_t mask;
     int64_t i;
     Slot *table;
-    while (((int64_t)1 << bits) < 2 * k)
+    if (k >= 65536)
+        return -1;
+    while (((int64_t)1 << bits) <= k)      /* more slots than entries: a free slot ends every search */
         bits++;
     mask = ((uint32_t)1 << bits) - 1;
     if (!(table = calloc((size_t)1 << bits, sizeof *table)))
