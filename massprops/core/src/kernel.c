@@ -120,25 +120,6 @@ static double exact_det(const double a[3], const double b[3], const double c[3])
     return exact_value(&sum);
 }
 
-/* A hard face that its rotations (hard_faces) left hard: double-double, else exact.
- * Returns 1 or 2. */
-static int refine(const double corner[3][3], double *det, double *bound)
-{
-    double d, e, hi, lo, permanent;
-    det_double_double(corner[0], corner[1], corner[2], &hi, &lo, &permanent);
-    d = hi + lo;
-    /* hi + lo is within det_double_double_error() * permanent; rounding it adds u |d|. */
-    e = UNIT_ROUNDOFF * fabs(d) + det_double_double_error() * permanent;
-    if (e <= REFINE_ABOVE * fabs(d) && e < *bound) {
-        *det = d;
-        *bound = e;
-        return 1;
-    }
-    *det = exact_det(corner[0], corner[1], corner[2]);
-    *bound = UNIT_ROUNDOFF * fabs(*det);
-    return 2;
-}
-
 /* Lane accumulators of one block: Sum2 (hi, lo) per summed quantity, plain sums for the rest. */
 typedef struct {
     double hi[SUMMED][LANES], lo[SUMMED][LANES];
@@ -192,11 +173,47 @@ static inline __attribute__((always_inline)) void rotated(const Corners *restric
 /* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
  * least bound), and double-double or exact arithmetic if that is still hard.  The other two
  * rotations are found for all lanes at once (hard faces come in runs: slivers, flat parts). */
+/* det_double_double (kernel_dd.c) of every lane's face: its operations in its order, lane by lane so
+ * that it vectorises (the same bits as the function's). */
+static inline __attribute__((always_inline)) void lanes_det_double_double(const Corners *restrict c,
+                                                                        double *restrict hi, double *restrict lo,
+                                                                        double *restrict permanent)
+{
+    static const int I[6] = {0, 1, 2, 0, 1, 2}, J[6] = {1, 2, 0, 2, 0, 1}, K[6] = {2, 0, 1, 1, 2, 0};
+    int l, t;
+    for (l = 0; l < LANES; l++) {
+        double major[6], rest[17], t01, t2, e, root, sum = 0.0;
+        int n = 0;
+        for (t = 0; t < 6; t++) {
+            double p, pe, ck = t < 3 ? c->p[2][K[t]][l] : -c->p[2][K[t]][l];
+            two_product(c->p[0][I[t]][l], c->p[1][J[t]][l], &p, &pe);
+            two_product(p, ck, &major[t], &rest[n++]);
+            rest[n++] = pe * ck;
+            sum += fabs(major[t]);
+        }
+        two_sum(major[0], major[3], &major[0], &rest[n++]);
+        two_sum(major[1], major[4], &major[1], &rest[n++]);
+        two_sum(major[2], major[5], &major[2], &rest[n++]);
+        two_sum(major[0], major[1], &t01, &rest[n++]);
+        two_sum(t01, major[2], &root, &rest[n++]);
+        t2 = 0.0;
+        for (t = 0; t < 17; t++)
+            t2 += rest[t];
+        fast_two_sum(root, t2, &hi[l], &e);
+        lo[l] = e;
+        permanent[l] = sum;
+    }
+}
+
+/* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
+ * least bound), and double-double or exact arithmetic if that is still hard (refine's steps, the
+ * double-double determinant of all lanes at once when any needs it).  The other two rotations are
+ * found for all lanes at once (hard faces come in runs: slivers, flat parts). */
 VECTOR_CLONES static __attribute__((noinline)) void hard_faces(const Corners *restrict c, int count, double *restrict det,
                                                 double *restrict bound, BlockResult *r)
 {
-    double det1[LANES], bound1[LANES], det2[LANES], bound2[LANES];
-    int l, k, i;
+    double det1[LANES], bound1[LANES], det2[LANES], bound2[LANES], hi[LANES], lo[LANES], permanent[LANES];
+    int l, k, i, still = 0, hard[LANES] = {0};
     rotated(c, 1, det1, bound1);
     rotated(c, 2, det2, bound2);
     for (l = 0; l < count; l++)
@@ -209,15 +226,28 @@ VECTOR_CLONES static __attribute__((noinline)) void hard_faces(const Corners *re
                 det[l] = det2[l];
                 bound[l] = bound2[l];
             }
-            if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
+            hard[l] = bound[l] > REFINE_ABOVE * fabs(det[l]);
+            still |= hard[l];
+        }
+    if (!still)
+        return;
+    lanes_det_double_double(c, hi, lo, permanent);
+    for (l = 0; l < count; l++)
+        if (hard[l]) {
+            /* hi + lo is within det_double_double_error() * permanent; rounding it adds u |d|. */
+            double d = hi[l] + lo[l], e = UNIT_ROUNDOFF * fabs(d) + det_double_double_error() * permanent[l];
+            r->refined++;
+            if (e <= REFINE_ABOVE * fabs(d) && e < bound[l]) {
+                det[l] = d;
+                bound[l] = e;
+            } else {
                 double corner[3][3];
-                int kind;
                 for (k = 0; k < 3; k++)
                     for (i = 0; i < 3; i++)
                         corner[k][i] = c->p[k][i][l];
-                kind = refine(corner, &det[l], &bound[l]);
-                r->refined += kind >= 1;
-                r->exact += kind == 2;
+                det[l] = exact_det(corner[0], corner[1], corner[2]);
+                bound[l] = UNIT_ROUNDOFF * fabs(det[l]);
+                r->exact++;
             }
         }
 }
