@@ -12,6 +12,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The vertex passes below are also compiled for AVX-512 and AVX2 (x86-64 Linux), picked when the module
+ * loads: the same IEEE operations, the same bits. */
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
+#define PASS_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define PASS_CLONES
+#endif
+
 /* det[a b c] = Σ sign · a_i b_j c_k over the six permutations (i, j, k). */
 static const int PI[6] = {0, 1, 2, 0, 1, 2}, PJ[6] = {1, 2, 0, 2, 0, 1}, PK[6] = {2, 0, 1, 1, 2, 0};
 
@@ -304,7 +312,7 @@ static inline uint64_t magnitude_bits(double x)
     return bits & 0x7FFFFFFFFFFFFFFFULL;
 }
 
-void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])
+PASS_CLONES void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])
 {
     const double minus[6] = {-centre[0], -centre[1], -centre[2], -centre[0], -centre[1], -centre[2]};
     uint64_t inexact[6] = {0, 0, 0, 0, 0, 0};
@@ -343,8 +351,8 @@ static inline double scaled_snapped(double x, double reference, int multiply, do
     return snap ? 0.0 : y;
 }
 
-int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
-                      double *out, int64_t *moved)
+PASS_CLONES int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp,
+                                  double smallest, double *out, int64_t *moved)
 {
     int64_t v, count = 0;
     int i, j, multiply = scale_exp >= -1023 && scale_exp <= 1022, any = 0;
