@@ -173,35 +173,19 @@ static inline __attribute__((always_inline)) void rotated(const Corners *restric
 /* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
  * least bound), and double-double or exact arithmetic if that is still hard.  The other two
  * rotations are found for all lanes at once (hard faces come in runs: slivers, flat parts). */
-/* det_double_double (kernel_dd.c) of every lane's face: its operations in its order, lane by lane so
- * that it vectorises (the same bits as the function's). */
+/* det_double_double (kernel_dd.c) of every lane's face, lane by lane so that it vectorises (det_dd
+ * inlined: the same bits as the function's). */
 static inline __attribute__((always_inline)) void lanes_det_double_double(const Corners *restrict c,
                                                                         double *restrict hi, double *restrict lo,
                                                                         double *restrict permanent)
 {
-    static const int I[6] = {0, 1, 2, 0, 1, 2}, J[6] = {1, 2, 0, 2, 0, 1}, K[6] = {2, 0, 1, 1, 2, 0};
-    int l, t;
-    for (l = 0; l < LANES; l++) {
-        double major[6], rest[17], t01, t2, e, root, sum = 0.0;
-        int n = 0;
-        for (t = 0; t < 6; t++) {
-            double p, pe, ck = t < 3 ? c->p[2][K[t]][l] : -c->p[2][K[t]][l];
-            two_product(c->p[0][I[t]][l], c->p[1][J[t]][l], &p, &pe);
-            two_product(p, ck, &major[t], &rest[n++]);
-            rest[n++] = pe * ck;
-            sum += fabs(major[t]);
-        }
-        two_sum(major[0], major[3], &major[0], &rest[n++]);
-        two_sum(major[1], major[4], &major[1], &rest[n++]);
-        two_sum(major[2], major[5], &major[2], &rest[n++]);
-        two_sum(major[0], major[1], &t01, &rest[n++]);
-        two_sum(t01, major[2], &root, &rest[n++]);
-        t2 = 0.0;
-        for (t = 0; t < 17; t++)
-            t2 += rest[t];
-        fast_two_sum(root, t2, &hi[l], &e);
-        lo[l] = e;
-        permanent[l] = sum;
+    for (int l = 0; l < LANES; l++) {
+        const double a[3] = {c->p[0][0][l], c->p[0][1][l], c->p[0][2][l]};
+        const double b[3] = {c->p[1][0][l], c->p[1][1][l], c->p[1][2][l]};
+        const double d[3] = {c->p[2][0][l], c->p[2][1][l], c->p[2][2][l]};
+        double h, e, sum;
+        det_dd(a, b, d, &h, &e, &sum);
+        hi[l] = h, lo[l] = e, permanent[l] = sum;
     }
 }
 

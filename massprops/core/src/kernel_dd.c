@@ -20,9 +20,6 @@
 #define PASS_CLONES
 #endif
 
-/* det[a b c] = Σ sign · a_i b_j c_k over the six permutations (i, j, k). */
-static const int PI[6] = {0, 1, 2, 0, 1, 2}, PJ[6] = {1, 2, 0, 2, 0, 1}, PK[6] = {2, 0, 1, 1, 2, 0};
-
 /* The error of hi + lo relative to the permanent P = Σ|major| (≥ (1 − γ5) of the exact Σ|major|).
  * lo is a float sum of 17 values (γ16 of their magnitudes): the 5 exact TwoSum errors of the
  * tree over the six major terms (≤ u of its partial sums, over 3 levels: ≤ 3u(1 + γ3) Σ|major|),
@@ -36,27 +33,7 @@ double det_double_double_error(void)
 void det_double_double(const double a[3], const double b[3], const double c[3], double *hi, double *lo,
                        double *permanent)
 {
-    double major[6], rest[17], t01, t2, e, root;
-    int t, n = 0;
-    *permanent = 0.0;
-    for (t = 0; t < 6; t++) {
-        double p, pe, ck = t < 3 ? c[PK[t]] : -c[PK[t]];
-        two_product(a[PI[t]], b[PJ[t]], &p, &pe);
-        two_product(p, ck, &major[t], &rest[n++]);
-        rest[n++] = pe * ck;
-        *permanent += fabs(major[t]);
-    }
-    /* the tree: (m0 + m3), (m1 + m4), (m2 + m5); then the first two; then the third */
-    two_sum(major[0], major[3], &major[0], &rest[n++]);
-    two_sum(major[1], major[4], &major[1], &rest[n++]);
-    two_sum(major[2], major[5], &major[2], &rest[n++]);
-    two_sum(major[0], major[1], &t01, &rest[n++]);
-    two_sum(t01, major[2], &root, &rest[n++]);
-    t2 = 0.0;
-    for (t = 0; t < n; t++)
-        t2 += rest[t];
-    fast_two_sum(root, t2, hi, &e);
-    *lo = e;
+    det_dd(a, b, c, hi, lo, permanent);
 }
 
 /* ---- the double-double pass ------------------------------------------------------------- */
