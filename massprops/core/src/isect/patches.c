@@ -71,6 +71,8 @@
 #define PATCH_LEVEL 3
 #define PATCH_FINEST 0
 #define PATCH_ENTRY_LIMIT 3
+/* The widest top cell, as a fraction of the smallest extent of the faces' box (below). */
+#define PATCH_THICKNESS 0.6
 /* A vertex of more faces fails its cells (each cell holding it would walk all its faces: a fan's hub
  * is left to the search, which skips a hub's pairs as a block). */
 #define PATCH_MAX_DEGREE 64
@@ -642,9 +644,9 @@ static void cells_block(Coarse *co, int64_t block, int fill)
 static void count_block(void *ctx, int64_t block) { cells_block(ctx, block, 0); }
 static void fill_block(void *ctx, int64_t block) { cells_block(ctx, block, 1); }
 
-/* The coarse grid at level `top` of the faces taken, counted into g (its faces are the input's:
- * g->corner = F) and co->slot; with `stars` (NULL when take is not) the box is that of their used
- * vertices.  0, 1 when nothing is to be done (no face, or more than PATCH_ENTRY_LIMIT entries a
+/* The coarse grid at level co->top (`top` or finer: see PATCH_THICKNESS) of the faces taken,
+ * counted into g (its faces are the input's: g->corner = F) and co->slot; with `stars` (NULL when
+ * take is not) the box is that of their used vertices.  0, 1 when nothing is to be done (no face, or more than PATCH_ENTRY_LIMIT entries a
  * face, as grid_build_at), 2 when the cells are too many for an array (then nothing is built), -1
  * out of memory. */
 static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, const int64_t *shell,
@@ -715,6 +717,13 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     if (!(whole > 0.0))
         whole = 1.0;
     double base = grid_base(extent, samples, whole, 1);
+    /* no top cell wider than PATCH_THICKNESS of the box's smallest extent: a wider cell of a thin
+     * or tube-like shell (a torus: its tube) holds both of its sides and fails, and its faces are
+     * tried again in its children */
+    double thin = dmin(ghi[0] - glo[0], dmin(ghi[1] - glo[1], ghi[2] - glo[2]));
+    while (co->top > PATCH_FINEST && ldexp(base, co->top) > PATCH_THICKNESS * thin)
+        co->top--;
+    top = co->top;
     for (int k = 0; k < 3; k++)
         g->origin[k] = glo[k];
     g->inverse = 1.0 / base;
@@ -779,6 +788,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     Grid g;
     Coarse co;
     int status = coarse_build(&co, &g, V, F, shell, take, m, top, take ? NULL : stars, threads);
+    top = co.top;
     if (status == 2)
         status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
     if (status != 0 || g.n == 0) {
