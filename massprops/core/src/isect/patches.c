@@ -92,7 +92,7 @@ typedef struct {
 
 typedef struct {
     uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
-    uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
+    uint8_t *vertex_count;    /* per vertex: its corners among the faces of the patch being tried (0: not seen) */
     Slot *vertex;             /* boundary vertices and their boundary edges' far ends (a hash table) */
     int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
     int64_t *boundary;        /* the boundary vertices in the table */
@@ -202,7 +202,7 @@ static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, i
     for (int64_t i = 0; i < k; i++)
         clear_bit(sc->face_bits, grid_id(g, list[i]));
     for (int64_t i = 0; i < vertices; i++)
-        clear_bit(sc->vertex_bits, sc->seen[i]);
+        sc->vertex_count[sc->seen[i]] = 0;
     for (int64_t i = 0; i < boundary; i++) {
         int64_t v = sc->boundary[i];
         for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
@@ -233,8 +233,52 @@ static int apart(int axis, P p, P q, P r, P s)
     return c != 0 && c == d;
 }
 
-/* The segments sorted by lo (in the array given or the scratch one). */
-RUN_MERGE_SORT(sort_segments, Segment, lo)
+/* The segments x[0..b) of a loop, in its order, sorted by lo (in x or tmp; the one returned).  A
+ * loop's lo rises and falls in few runs (two on a convex one): the falling runs are turned, then
+ * neighbouring runs merged until one is left. */
+static Segment *sort_segments(Segment *x, Segment *tmp, int64_t b)
+{
+    for (int64_t i = 0; i + 1 < b;) {
+        if (!(x[i + 1].lo < x[i].lo)) {
+            i++;
+            continue;
+        }
+        int64_t j = i + 1;
+        while (j + 1 < b && x[j + 1].lo < x[j].lo)
+            j++;
+        for (int64_t lo = i, hi = j; lo < hi; lo++, hi--) {
+            Segment swap = x[lo];
+            x[lo] = x[hi];
+            x[hi] = swap;
+        }
+        i = j + 1;
+    }
+    Segment *src = x, *dst = tmp;
+    for (;;) {
+        int64_t o = 0, runs = 0;
+        for (int64_t start = 0; start < b; runs++) {
+            int64_t mid = start + 1;
+            while (mid < b && !(src[mid].lo < src[mid - 1].lo))
+                mid++;
+            int64_t stop = mid < b ? mid + 1 : b;
+            while (stop < b && !(src[stop].lo < src[stop - 1].lo))
+                stop++;
+            int64_t i = start, j = mid;
+            while (i < mid && j < stop)
+                dst[o++] = src[j].lo < src[i].lo ? src[j++] : src[i++];
+            while (i < mid)
+                dst[o++] = src[i++];
+            while (j < stop)
+                dst[o++] = src[j++];
+            start = stop;
+        }
+        Segment *swap = src;
+        src = dst;
+        dst = swap;
+        if (runs <= 1)
+            return src;
+    }
+}
 
 /* (d): the projected loop loop[0..b) is a simple polygon. */
 static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis, Scratch *sc)
@@ -342,7 +386,10 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         return 0;
     for (int64_t i = 0; i < k; i++)
         set_bit(sc->face_bits, grid_id(g, list[i]));
-    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2) */
+    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2).  Each vertex's corners
+     * among the faces are counted first: a vertex with as many as it has faces is interior (all its
+     * faces are in the patch; each is there once), and only the others' cycles are walked for
+     * their runs. */
     int ok = 1, y = axis == 0 ? 1 : 0;
     int64_t n_vertices = 0, n_boundary = 0, start = -1;
     sc->vertex_mask = 1;
@@ -350,58 +397,64 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         sc->vertex_mask *= 2;
     sc->vertex_mask--;
     const int64_t *F = st->F;
-    for (int64_t i = 0; i < k && ok; i++)
-        for (int c = 0; c < 3 && ok; c++) {
-            int64_t v = g->corner[3 * (int64_t)list[i] + c];
-            if (bit(sc->vertex_bits, v))
-                continue;
-            set_bit(sc->vertex_bits, v);
-            sc->seen[n_vertices++] = v;
-            int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
-            if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
-                ok = 0;
-                break;
-            }
-            /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
-             * leaves the patch goes to the far end of the run's first face), or all of them */
-            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
+    uint8_t *count = sc->vertex_count;
+    for (int64_t i = 0; i < k; i++) {
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        for (int j = 0; j < 3; j++) {
+            int64_t v = c[j];
+            if (!count[v])
+                sc->seen[n_vertices++] = v;
+            /* at most PATCH_MAX_DEGREE + 1 is kept (a vertex of more faces fails below) */
+            count[v] += count[v] <= PATCH_MAX_DEGREE;
+        }
+    }
+    for (int64_t i = 0; i < n_vertices && ok; i++) {
+        int64_t v = sc->seen[i];
+        int64_t b = st->begin[v], degree = st->begin[v + 1] - b;
+        if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
+            ok = 0;
+            break;
+        }
+        if (count[v] == degree) {
+            /* an interior vertex: the star condition (2) along the axis (its link's coordinates) */
+            P pv = V + 3 * v;
+            int64_t upward = 0;
+            int first_above = 0, last_above = 0;
             for (int64_t j = 0; j < degree; j++) {
                 uint32_t r = st->ring[b + j];
-                int in = bit(sc->face_bits, r >> 2);
-                if (in && !last_in) {
-                    runs++;
-                    int corner = r & 3;
-                    edge = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
-                }
-                outside += !in;
-                last_in = in;
+                int corner = r & 3;
+                int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
+                int above = V[3 * x + y] > pv[y];
+                if (j == 0)
+                    first_above = above;
+                else
+                    upward += !last_above && above;
+                last_above = above;
             }
-            /* an interior vertex: the star condition (2) along the axis (its link's coordinates) */
-            int64_t upward = 0;
-            if (outside == 0) {
-                P pv = V + 3 * v;
-                int first_above = 0, last_above = 0;
-                for (int64_t j = 0; j < degree; j++) {
-                    uint32_t r = st->ring[b + j];
-                    int corner = r & 3;
-                    int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
-                    int above = V[3 * x + y] > pv[y];
-                    if (j == 0)
-                        first_above = above;
-                    else
-                        upward += !last_above && above;
-                    last_above = above;
-                }
-                upward += !last_above && first_above;
-            }
-            if (outside == 0)
-                ok = upward == 1;
-            else if (runs == 1 && n_boundary < k + 2) {
-                boundary_add(sc, v, edge, n_boundary++);
-                start = v;
-            } else
-                ok = 0;
+            upward += !last_above && first_above;
+            ok = upward == 1;
+            continue;
         }
+        /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
+         * leaves the patch goes to the far end of the run's first face) */
+        int64_t runs = 0, edge = -1;
+        int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
+        for (int64_t j = 0; j < degree; j++) {
+            uint32_t r = st->ring[b + j];
+            int in = bit(sc->face_bits, r >> 2);
+            if (in && !last_in) {
+                runs++;
+                int corner = r & 3;
+                edge = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
+            }
+            last_in = in;
+        }
+        if (runs == 1 && n_boundary < k + 2) {
+            boundary_add(sc, v, edge, n_boundary++);
+            start = v;
+        } else
+            ok = 0;
+    }
     /* (c) */
     if (ok)
         ok = n_boundary >= 3 && 2 * n_vertices - k - n_boundary == 2;
@@ -814,8 +867,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     int ready = pa.scratch != NULL;
     for (int k = 0; ready && k < workers; k++) {
         pa.scratch[k].face_bits = calloc((stars->m >> 6) + 1, sizeof(uint64_t));
-        pa.scratch[k].vertex_bits = calloc((stars->n >> 6) + 1, sizeof(uint64_t));
-        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_bits;
+        pa.scratch[k].vertex_count = calloc(stars->n + 1, 1);
+        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_count;
     }
     if (pa.cut && ready) {
         int64_t n_cuts = 0, at = 0;
@@ -841,7 +894,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     }
     for (int k = 0; pa.scratch && k < workers; k++) {
         scratch_release(&pa.scratch[k]);
-        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
+        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_count);
     }
     free(pa.cut), free(pa.scratch), free(co.slot);
     grid_free(&g);
