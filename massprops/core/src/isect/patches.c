@@ -280,10 +280,51 @@ static Segment *sort_segments(Segment *x, Segment *tmp, int64_t b)
     }
 }
 
+/* (d) shown the cheap way, or not: the projected loop loop[0..b) turns one way about a point c, once.
+ * Every edge p q has orient2d(c, p, q) of one strict sign, and one edge only crosses the line
+ * through c parallel to u in the direction that sign gives (w of p below c's, q's at or above it,
+ * for a positive sign; the other way for a negative one).  Then the loop is a simple polygon.
+ * Proof.  Let the sign be positive (else reverse the loop).  Seen from c, the angle of a point
+ * moving along an edge grows strictly (c is on no edge: each orient2d is not zero) and by less
+ * than pi.  An edge crossing that line upwards crosses it right of c: for x where it does,
+ * orient2d(c, p, q) = (x - c) x (q - p) = (x_u - c_u)(q_w - p_w), positive.  With the half-open
+ * rule (below, then at or above) a loop meets that ray once per turn about c, so the loop turns
+ * once: its vertices' angles t_0 < t_1 < ... < t_(b-1) < t_0 + 2 pi.  Each closed edge lies in
+ * the closed sector of its ends' angles; the sectors of two edges that are not consecutive are
+ * disjoint and c is on neither, so those edges do not meet; two consecutive ones share the ray
+ * through their common corner, which each meets there only (neither lies along it).  []  c is any
+ * point (here the mean of the corners, rounded): the predicates are exact for it. */
+static int loop_turns_once(const double *V, const int64_t *loop, int64_t b, int u, int w)
+{
+    double cu = 0.0, cw = 0.0;
+    for (int64_t i = 0; i < b; i++) {
+        cu += V[3 * loop[i] + u];
+        cw += V[3 * loop[i] + w];
+    }
+    cu /= (double)b;
+    cw /= (double)b;
+    int sign = 0;
+    int64_t up = 0, down = 0;
+    P p = V + 3 * loop[b - 1];
+    for (int64_t i = 0; i < b; i++) {
+        P q = V + 3 * loop[i];
+        int o = orient2d(cu, cw, p[u], p[w], q[u], q[w]);
+        if (o == 0 || (sign != 0 && o != sign))
+            return 0;
+        sign = o;
+        up += p[w] < cw && cw <= q[w];
+        down += q[w] < cw && cw <= p[w];
+        p = q;
+    }
+    return (sign > 0 ? up : down) == 1;
+}
+
 /* (d): the projected loop loop[0..b) is a simple polygon. */
 static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis, Scratch *sc)
 {
     int u = axis == 0 ? 1 : 0, w = axis == 2 ? 1 : 2;
+    if (b >= 3 && loop_turns_once(V, loop, b, u, w))
+        return 1;
     for (int64_t i = 0; i < b; i++) {
         int64_t i1 = i + 1 == b ? 0 : i + 1, i2 = i1 + 1 == b ? 0 : i1 + 1;
         P p = V + 3 * loop[i], q = V + 3 * loop[i1], r = V + 3 * loop[i2];
