@@ -413,8 +413,10 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     face_normal(g, list[0], n);
     int axis = largest(n), sign = one_sign(g, list, k, axis, shell);
     if (sign == 0) {
+        /* the other axis from the normals of about 16 faces spread over the cell (a choice of
+         * speed: (a) is then checked on every face) */
         double sum[3] = {0.0, 0.0, 0.0};
-        for (int64_t i = 0; i < k; i++) {
+        for (int64_t i = 0, step = 1 + k / 16; i < k; i += step) {
             face_normal(g, list[i], n);
             for (int a = 0; a < 3; a++)
                 sum[a] += n[a];
@@ -425,8 +427,6 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     }
     if (sign == 0)
         return 0;
-    for (int64_t i = 0; i < k; i++)
-        set_bit(sc->face_bits, grid_id(g, list[i]));
     /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2).  Each vertex's corners
      * among the faces are counted first: a vertex with as many as it has faces is interior (all its
      * faces are in the patch; each is there once), and only the others' cycles are walked for
@@ -440,6 +440,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     const int64_t *F = st->F;
     uint8_t *count = sc->vertex_count;
     for (int64_t i = 0; i < k; i++) {
+        set_bit(sc->face_bits, grid_id(g, list[i]));
         const int64_t *c = g->corner + 3 * (int64_t)list[i];
         for (int j = 0; j < 3; j++) {
             int64_t v = c[j];
