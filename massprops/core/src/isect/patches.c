@@ -632,7 +632,8 @@ typedef struct {
     int64_t n;                /* vertices */
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken, or of zero area), its cell, or HOME_SPLIT */
+    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken, or of zero area), its cells (enter), or
+                               * HOME_SPLIT (cells_block) */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
     int64_t *count;           /* per block: valid faces (valid_block), then entries */
     int64_t *valid;           /* per block: valid faces (counted with the entries) */
@@ -687,7 +688,36 @@ static void used_block(void *ctx, int64_t block)
     memcpy(co->box[block], box, sizeof(box));
 }
 
-/* The block's entries: counted per cell (fill 0), or filed (fill 1). */
+/* Face t entered in the cells of `home` (cells_block): the cell of its box's low corner and, per
+ * bit of home & 7, the next one along x (1), y (2), z (4); counted (fill 0) or filed (fill 1).
+ * (With home, at most HOME_MOST faces and so fewer than 2^23 cells: 8 * cell + 7 < HOME_SPLIT.) */
+static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, uint32_t t)
+{
+    int64_t at[8], n = 0, cell = home >> 3, row = co->dims[0], plane = co->dims[0] * co->dims[1];
+    at[n++] = cell;
+    if (home & 1)
+        at[n++] = cell + 1;
+    if (home & 2) {
+        at[n++] = cell + row;
+        if (home & 1)
+            at[n++] = cell + row + 1;
+    }
+    if (home & 4) {
+        int64_t up = n;
+        for (int64_t i = 0; i < up; i++)
+            at[n++] = at[i] + plane;
+    }
+    for (int64_t i = 0; i < n; i++) {
+        if (fill)
+            co->face[slot[at[i]]++] = t;
+        else
+            slot[at[i]]++;
+    }
+}
+
+/* The block's entries: counted per cell (fill 0), or filed (fill 1).  A face's cells are kept in
+ * home when it reaches at most the next cell along each axis (most faces: a coarse cell is at
+ * least twice most faces' extent); the others' are found again. */
 static void cells_block(Coarse *co, int64_t block, int fill)
 {
     int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0, valid = 0;
@@ -698,10 +728,12 @@ static void cells_block(Coarse *co, int64_t block, int fill)
             uint32_t home = co->home[t];
             if (home == HOME_NONE)
                 continue;
-            if (home != HOME_SPLIT) {
-                co->face[slot[home]++] = (uint32_t)t;
+            if (!(home & 7))
+                co->face[slot[home >> 3]++] = (uint32_t)t;
+            else if (home != HOME_SPLIT)
+                enter(co, slot, home, 1, (uint32_t)t);
+            if (home != HOME_SPLIT)
                 continue;
-            }
         }
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
@@ -716,6 +748,22 @@ static void cells_block(Coarse *co, int64_t block, int fill)
             c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
             c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> co->top;
         }
+        int64_t low = (c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0];
+        if (!fill && c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]) {
+            /* one cell (most faces when the cells are coarse) */
+            slot[low]++;
+            if (co->home)
+                co->home[t] = (uint32_t)(low << 3);
+            n++;
+            continue;
+        }
+        if (!fill && co->home && c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1) {
+            uint32_t home = (uint32_t)(low << 3 | (c1[0] - c0[0]) | (c1[1] - c0[1]) << 1 | (c1[2] - c0[2]) << 2);
+            co->home[t] = home;
+            enter(co, slot, home, 0, (uint32_t)t);
+            n += (1 + (home & 1)) * (1 + (home >> 1 & 1)) * (1 + (home >> 2 & 1));
+            continue;
+        }
         for (int64_t z = c0[2]; z <= c1[2]; z++)
             for (int64_t y = c0[1]; y <= c1[1]; y++)
                 for (int64_t x = c0[0]; x <= c1[0]; x++) {
@@ -727,8 +775,7 @@ static void cells_block(Coarse *co, int64_t block, int fill)
                     n++;
                 }
         if (!fill && co->home)
-            co->home[t] = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]
-                              ? (uint32_t)((c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0]) : HOME_SPLIT;
+            co->home[t] = HOME_SPLIT;
     }
     if (!fill) {
         co->count[block] = n;
