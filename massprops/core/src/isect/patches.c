@@ -413,10 +413,8 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     face_normal(g, list[0], n);
     int axis = largest(n), sign = one_sign(g, list, k, axis, shell);
     if (sign == 0) {
-        /* the other axis from the normals of about 16 faces spread over the cell (a choice of
-         * speed: (a) is then checked on every face) */
         double sum[3] = {0.0, 0.0, 0.0};
-        for (int64_t i = 0, step = 1 + k / 16; i < k; i += step) {
+        for (int64_t i = 0; i < k; i++) {
             face_normal(g, list[i], n);
             for (int a = 0; a < 3; a++)
                 sum[a] += n[a];
@@ -632,7 +630,7 @@ typedef struct {
     int64_t n;                /* vertices */
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken, or of zero area), its cells (enter), or
+    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken), its cells (enter), or
                                * HOME_SPLIT (cells_block) */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
     int64_t *count;           /* per block: valid faces (valid_block), then entries */
@@ -643,9 +641,13 @@ typedef struct {
     uint32_t *face;           /* per entry: input face index */
 } Coarse;
 
+/* Faces of zero area are filed too: (a) fails the cells that hold one (and its neighbours are
+ * searched; the search leaves it out).  Testing every face's area here cost more than those
+ * cells, which are rare. */
 static inline int taken_face(const Coarse *co, int64_t t, P a, P b, P e)
 {
-    return (!co->take || co->take[t]) && has_area(a, b, e);
+    (void)a, (void)b, (void)e;
+    return !co->take || co->take[t];
 }
 
 static void valid_block(void *ctx, int64_t block)
