@@ -93,9 +93,11 @@ typedef struct {
 typedef struct {
     uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
     uint8_t *vertex_count;    /* per vertex: its corners among the faces of the patch being tried (0: not seen) */
-    Slot *vertex;             /* boundary vertices and their boundary edges' far ends (a hash table) */
+    Slot *vertex;             /* boundary vertices from the BOUNDARY_DIRECT-th on and their boundary edges' far
+                               * ends (a hash table) */
     int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
-    int64_t *boundary;        /* the boundary vertices in the table */
+    int64_t *boundary;        /* the boundary vertices, as they are met */
+    int64_t *far;             /* the far end of each one's boundary edge */
     int64_t *loop;            /* the boundary loop's vertices */
     int64_t *seen;            /* the vertices of the patch being tried, as they are first met */
     Segment *segments, *sorted;
@@ -128,7 +130,7 @@ static inline uint64_t mix(uint64_t h)
 
 static void scratch_release(Scratch *sc)
 {
-    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->seen), free(sc->segments), free(sc->sorted);
+    free(sc->vertex), free(sc->boundary), free(sc->far), free(sc->loop), free(sc->seen), free(sc->segments), free(sc->sorted);
     for (int d = 0; d < PATCH_LEVEL; d++)
         free(sc->list[d]), free(sc->octants[d]);
 }
@@ -147,11 +149,12 @@ static int patch_reserve(Scratch *sc, int64_t k)
     sc->cap = 0;
     sc->vertex = calloc(vertices, sizeof(Slot));
     sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
+    sc->far = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
     sc->seen = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->vertex && sc->boundary && sc->loop && sc->seen && sc->segments && sc->sorted;
+    int ok = sc->vertex && sc->boundary && sc->far && sc->loop && sc->seen && sc->segments && sc->sorted;
     for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
         ok = (sc->octants[d] = malloc(cap)) && ok;
@@ -161,7 +164,7 @@ static int patch_reserve(Scratch *sc, int64_t k)
         memset(sc->list, 0, sizeof(sc->list));
         memset(sc->octants, 0, sizeof(sc->octants));
         sc->vertex = NULL;
-        sc->boundary = sc->loop = sc->seen = NULL;
+        sc->boundary = sc->far = sc->loop = sc->seen = NULL;
         sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
@@ -174,19 +177,39 @@ static inline int bit(const uint64_t *bits, int64_t i) { return (int)(bits[i >> 
 static inline void set_bit(uint64_t *bits, int64_t i) { bits[i >> 6] |= 1ULL << (i & 63); }
 static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL << (i & 63)); }
 
-/* Add boundary vertex v, its boundary edge going to `to` (v is not there yet). */
+/* Once a vertex of the patch is known to be on its boundary, its corner count (at most
+ * PATCH_MAX_DEGREE + 1, below BOUNDARY_MARK) is replaced by BOUNDARY_MARK | its rank among the
+ * boundary vertices, for the first BOUNDARY_DIRECT of them; the others are marked BOUNDARY_HASHED
+ * and found in the hash table. */
+#define BOUNDARY_MARK 0x80
+#define BOUNDARY_DIRECT 127
+#define BOUNDARY_HASHED 0xFF
+_Static_assert(PATCH_MAX_DEGREE + 1 < BOUNDARY_MARK, "a corner count is below the boundary mark");
+
+/* Add boundary vertex v, the count-th, its boundary edge going to `to` (v is not there yet). */
 static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
 {
+    sc->boundary[count] = v;
+    sc->far[count] = to;
+    if (count < BOUNDARY_DIRECT) {
+        sc->vertex_count[v] = (uint8_t)(BOUNDARY_MARK | count);
+        return;
+    }
+    sc->vertex_count[v] = BOUNDARY_HASHED;
     uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
     while (sc->vertex[i].vertex)
         i = (i + 1) & sc->vertex_mask;
     sc->vertex[i] = (Slot){v + 1, to};
-    sc->boundary[count] = v;
 }
 
 /* The far end of boundary vertex v's boundary edge, or -1 when v is not a boundary vertex. */
 static inline int64_t boundary_next(const Scratch *sc, int64_t v)
 {
+    uint8_t mark = sc->vertex_count[v];
+    if (mark < BOUNDARY_MARK)
+        return -1;
+    if (mark != BOUNDARY_HASHED)
+        return sc->far[mark & ~BOUNDARY_MARK];
     for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
         if (sc->vertex[i].vertex == v + 1)
             return sc->vertex[i].next;
@@ -203,7 +226,7 @@ static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, i
         clear_bit(sc->face_bits, grid_id(g, list[i]));
     for (int64_t i = 0; i < vertices; i++)
         sc->vertex_count[sc->seen[i]] = 0;
-    for (int64_t i = 0; i < boundary; i++) {
+    for (int64_t i = BOUNDARY_DIRECT; i < boundary; i++) {
         int64_t v = sc->boundary[i];
         for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
             sc->vertex[s].vertex = 0;
