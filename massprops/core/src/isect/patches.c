@@ -222,8 +222,9 @@ static inline int64_t boundary_next(const Scratch *sc, int64_t v)
  * filled. */
 static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t vertices, int64_t boundary)
 {
+    /* every bit set is this patch's: whole words are cleared (no read of each) */
     for (int64_t i = 0; i < k; i++)
-        clear_bit(sc->face_bits, grid_id(g, list[i]));
+        sc->face_bits[grid_id(g, list[i]) >> 6] = 0;
     for (int64_t i = 0; i < vertices; i++)
         sc->vertex_count[sc->seen[i]] = 0;
     for (int64_t i = BOUNDARY_DIRECT; i < boundary; i++) {
@@ -287,8 +288,13 @@ static Segment *sort_segments(Segment *x, Segment *tmp, int64_t b)
             while (stop < b && !(src[stop].lo < src[stop - 1].lo))
                 stop++;
             int64_t i = start, j = mid;
-            while (i < mid && j < stop)
-                dst[o++] = src[j].lo < src[i].lo ? src[j++] : src[i++];
+            while (i < mid && j < stop) {
+                int later = src[j].lo < src[i].lo;     /* (a pointer chosen, not a branch) */
+                const Segment *pick = later ? &src[j] : &src[i];
+                dst[o++] = *pick;
+                j += later;
+                i += !later;
+            }
             while (i < mid)
                 dst[o++] = src[i++];
             while (j < stop)
@@ -335,8 +341,8 @@ static int loop_turns_once(const double *V, const int64_t *loop, int64_t b, int 
         if (o == 0 || (sign != 0 && o != sign))
             return 0;
         sign = o;
-        up += p[w] < cw && cw <= q[w];
-        down += q[w] < cw && cw <= p[w];
+        up += (p[w] < cw) & (cw <= q[w]);
+        down += (q[w] < cw) & (cw <= p[w]);
         p = q;
     }
     return (sign > 0 ? up : down) == 1;
@@ -465,8 +471,8 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         const int64_t *c = g->corner + 3 * (int64_t)list[i];
         for (int j = 0; j < 3; j++) {
             int64_t v = c[j];
-            if (!count[v])
-                sc->seen[n_vertices++] = v;
+            sc->seen[n_vertices] = v;
+            n_vertices += !count[v];
             /* at most PATCH_MAX_DEGREE + 1 is kept (a vertex of more faces fails below) */
             count[v] += count[v] <= PATCH_MAX_DEGREE;
         }
@@ -500,19 +506,19 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         }
         /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
          * leaves the patch goes to the far end of the run's first face) */
-        int64_t runs = 0, edge = -1;
+        int64_t runs = 0;
+        uint32_t first = 0;   /* (without branches: which faces are in is not predictable) */
         int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
         for (int64_t j = 0; j < degree; j++) {
             uint32_t r = st->ring[b + j];
-            int in = bit(sc->face_bits, r >> 2);
-            if (in && !last_in) {
-                runs++;
-                int corner = r & 3;
-                edge = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
-            }
+            int in = bit(sc->face_bits, r >> 2), starts = in & !last_in;
+            runs += starts;
+            first = starts ? r : first;
             last_in = in;
         }
         if (runs == 1 && n_boundary < k + 2) {
+            int corner = first & 3;
+            int64_t edge = F[3 * (int64_t)(first >> 2) + (corner == 2 ? 0 : corner + 1)];
             boundary_add(sc, v, edge, n_boundary++);
             start = v;
         } else
