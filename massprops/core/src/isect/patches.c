@@ -3,9 +3,10 @@
  *
  * On a shell that is not star-shaped (a torus, most machined parts) the
  * search would otherwise enumerate every pair of neighbouring faces whose
- * boxes meet.  Here a coarse grid (cells 8 times the search's; grid.c, every
- * face at one level, filed by counting into an array of cells; below) is
- * built first, and each cell's faces are certified as
+ * boxes meet.  Here a coarse grid (cells 8 times the search's, finer on fewer
+ * faces or a thin box; grid.c, every face at one level, filed by counting
+ * into an array of cells; below) is built first, and each cell's faces are
+ * certified as
  * one embedded patch when they can be; failing that, each of the cell's
  * children, then each of theirs.  Only faces in some cell that is not
  * certified go on to the pair search.
@@ -951,7 +952,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
                  const Stars *stars, int threads, uint8_t *bad)
 {
     /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
-     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
+     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it; and
+     * no wider than PATCH_THICKNESS of the box's smallest extent (coarse_build). */
     int64_t taken = take ? 0 : m;
     for (int64_t t = 0; take && t < m; t++)
         taken += take[t] != 0;
