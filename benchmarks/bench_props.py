@@ -21,7 +21,9 @@ Measured, each the best of a few runs (the machine is shared):
 - threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
 - read and weld: ``massprops.core.read_stl`` on the binary STLs, 1 and 2 threads, in process;
 - startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"`` (and the same
-  with one BLAS thread, which the ``massprops`` script asks for before numpy loads).
+  with one BLAS thread, which the ``massprops`` script asks for before numpy loads), and the same pair
+  with massprops installed from a wheel built from this tree (what users run), in a virtualenv over
+  this interpreter.
 
 Speed is measured here, never asserted in tests.
 """
@@ -284,16 +286,54 @@ STARTUP_PROBE = ("import sys; from click.testing import CliRunner; import masspr
                  "print(sorted(m for m in ('trimesh', 'scipy', 'meshio', 'matplotlib', 'dask') if m in sys.modules))")
 
 
+def wheel_python(scratch):
+    """A virtualenv in ``scratch`` with this tree installed from a wheel (what users run), or None.
+
+    It sees this interpreter's site-packages (numpy, click) but imports massprops from the wheel;
+    the benchmark's own ``massprops`` may be an editable install, whose start-up differs.
+    """
+    root = os.path.dirname(HERE)
+    venv = os.path.join(scratch, "venv")
+    steps = ([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w",
+              os.path.join(scratch, "wheel"), root],
+             [sys.executable, "-m", "venv", "--system-site-packages", venv])
+    for step in steps:
+        if subprocess.run(step, capture_output=True).returncode:
+            return None
+    wheel = [os.path.join(scratch, "wheel", name) for name in os.listdir(os.path.join(scratch, "wheel"))]
+    python = os.path.join(venv, "bin", "python")
+    done = subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", *wheel], capture_output=True)
+    return python if done.returncode == 0 else None
+
+
 def startup(quick):
+    import tempfile
     path = box_stl()
     repeat = 10 if quick else 25
     one_blas = {name: "1" for name in BLAS_THREADS}
-    found = interleaved({"ours": (massprops_cmd(path), None, 1),
-                         "numpy": ([sys.executable, "-c", "import numpy"], None, 1),
-                         "numpy, 1 BLAS thread": ([sys.executable, "-c", "import numpy"], one_blas, 1),
-                         "bare": ([sys.executable, "-c", "pass"], None, 1)}, repeat)
+    commands = {"ours": (massprops_cmd(path), None, 1),
+                "numpy": ([sys.executable, "-c", "import numpy"], None, 1),
+                "numpy, 1 BLAS thread": ([sys.executable, "-c", "import numpy"], one_blas, 1),
+                "bare": ([sys.executable, "-c", "pass"], None, 1)}
+    with tempfile.TemporaryDirectory() as scratch:
+        wheel = None if quick else wheel_python(scratch)
+        if wheel:
+            script = os.path.join(os.path.dirname(wheel), "massprops")
+            commands["wheel"] = ([script, "props", path], None, 1)
+            commands["wheel numpy"] = ([wheel, "-c", "import numpy"], None, 1)
+            commands["wheel numpy, 1 BLAS thread"] = ([wheel, "-c", "import numpy"], one_blas, 1)
+        found = interleaved(commands, repeat)
     ours, numpy_only, bare = found["ours"][0], found["numpy"][0], found["bare"][0]
     numpy_one = found["numpy, 1 BLAS thread"][0]
+    rows = []
+    if wheel:
+        wheel_ours, wheel_numpy = found["wheel"][0], found["wheel numpy"][0]
+        wheel_one = found["wheel numpy, 1 BLAS thread"][0]
+        rows = [f"| installed from a wheel (a virtualenv over this interpreter): `import numpy` | {wheel_numpy:.3f} "
+                f"| 1.00× |",
+                f"| the same, one BLAS thread | {wheel_one:.3f} | {wheel_one / wheel_numpy:.2f}× |",
+                f"| installed from a wheel: `massprops props box.stl` | {wheel_ours:.3f} "
+                f"| {wheel_ours / wheel_numpy:.2f}× ({wheel_ours / wheel_one:.2f}× the one-thread import) |"]
     heavy = subprocess.run([sys.executable, "-c", STARTUP_PROBE, path], capture_output=True,
                            text=True).stdout.strip()
     return "\n".join([
@@ -303,7 +343,7 @@ def startup(quick):
         f"| the same, `OPENBLAS_NUM_THREADS=1` (and MKL, BLIS, Accelerate) | {numpy_one:.3f} "
         f"| {numpy_one / numpy_only:.2f}× |",
         f"| `massprops props box.stl` (asks for one BLAS thread itself) | {ours:.3f} | {ours / numpy_only:.2f}× "
-        f"({ours / numpy_one:.2f}× the one-thread import) |",
+        f"({ours / numpy_one:.2f}× the one-thread import) |", *rows,
         "", f"Heavy modules imported by `massprops props` on a binary STL: {heavy or '[]'}."])
 
 

@@ -196,6 +196,37 @@ def test_edges_shells_and_duplicates_match_their_oracles(seed, kind, flaw):
     assert groups.first.tolist() == [expected_labels.index(k) for k in range(max(expected_labels) + 1)]
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(12, 400), st.sampled_from(FLAWS))
+def test_fan_centres_edges_match_the_oracle(seed, sides, flaw):
+    """A prism's caps fanned from one corner: that vertex has an edge to every other of its cap (many edges
+    of one vertex are grouped otherwise than a few); the flaw on a face at a fan's centre."""
+    rng = np.random.default_rng(seed)
+    prism = solids.regular_prism(sides, 1.0, 0.5)
+    at_centre = np.flatnonzero((prism.faces == 0).any(axis=1))
+    faces = prism.faces[np.roll(np.arange(prism.faces.shape[0]), -int(rng.choice(at_centre)))]
+
+    class First:                                  # _broken's choice of face: the first, at a fan's centre
+        @staticmethod
+        def integers(low, high):
+            return 0
+
+    mesh = _scrambled(_broken(TriangleMesh(prism.vertices, faces), flaw, First), rng)
+    n, faces = mesh.vertices.shape[0], mesh.faces
+    edges, collapsed = _edge_oracle(faces)
+    values = list(edges.values())
+    found = edge_summary(faces, n)
+    assert (found.edges, found.boundary, found.odd, found.unbalanced, found.nonmanifold, found.collapsed,
+            found.max_uses) == (len(edges), sum(u == 1 for u, _ in values), sum(u % 2 for u, _ in values),
+                                sum(b != 0 for _, b in values), sum(u > 2 for u, _ in values), collapsed,
+                                max(u for u, _ in values))
+    unbalanced = sorted(e for e, (_, b) in edges.items() if b)
+    boundary = sorted(e for e, (u, _) in edges.items() if u == 1)
+    assert found.first_unbalanced == (unbalanced[0] if unbalanced else None)
+    assert found.first_boundary == (boundary[0] if boundary else None)
+    _assert_edge_shells(faces, n)
+
+
 def _assert_edge_shells(faces, n):
     """edge_shells gives edge_summary's counts and the oracle's shells (labels only when more than one)."""
     summary, labels, count = edge_shells(faces, n)

@@ -141,3 +141,21 @@ def test_a_used_vertex_that_is_not_finite_is_refused_wherever_it_is(vertex, axis
         vertices = np.asfortranarray(vertices)
     with pytest.raises(MeshGeometryError, match=r"1 vertices have NaN or infinite coordinates \(first: vertex"):
         mass_properties(vertices, box.faces)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), rows=st.integers(500, 1600), where=st.floats(0.0, 1.0),
+       axis=st.integers(0, 2))
+def test_one_inexact_coordinate_anywhere_in_a_long_column(seed, rows, where, axis):
+    # The compiled test of the centre's shift looks at the coordinates in chunks of vertices: one coordinate
+    # whose shift is inexact, at any place (first, last, at a chunk's edge), keeps that axis from the centre.
+    # Multiples of 1/64 on a box from -31.5 to 40: the centre is 4 and shifting by it is exact, but not for
+    # the double just below -28 (the difference falls in the next binade and loses its last bit).
+    rng = np.random.default_rng(seed)
+    vertices = np.round((rng.random((rows, 3)) * 71.0 - 31.0) * 64.0) / 64.0
+    vertices[0], vertices[1] = -31.5, 40.0
+    at = 2 + int(where * (rows - 3))
+    vertices[at, axis] = np.nextafter(-28.0, -np.inf)
+    frame = _check(np.ascontiguousarray(vertices))
+    without = _check(np.ascontiguousarray(np.delete(vertices, at, axis=0)))
+    assert without.reference[axis] == 4.0 and frame.reference[axis] == 0.0

@@ -466,36 +466,37 @@ def test_two_flat_fans_crossing_in_one_shell_are_found_pair_by_pair(k1, k2, jitt
     assert stars[0] and stars[k1 + 1]
 
 
-def _finely_cut_box(n, rng, spike):
-    """A closed box [0, 4n]^3 whose sides are n x n grids of squares cut in two (integer coordinates),
-    each side's inner grid points moved out by 0 or 1, and the middle of the bottom pushed up to
-    height `spike`: not star-shaped about its centre, so the search certifies it patch by patch
-    (cells of a coarse grid whose faces are one disk that projects one-to-one)."""
+def _finely_cut_box(n, rng, spike, depth=None):
+    """A closed box [0, 4n]^2 x [0, 4 depth] (depth n unless given) whose sides are grids of squares
+    of side 4 cut in two (integer coordinates), each side's inner grid points moved out by 0 or 1,
+    and the middle of the bottom pushed up to height `spike`: not star-shaped about its centre, so
+    the search certifies it patch by patch (cells of a coarse grid whose faces are one disk that
+    projects one-to-one)."""
     index, points, faces = {}, [], []
-    side = 4 * n
+    count = (n, n, n if depth is None else depth)
     for axis in range(3):
         u, v = (axis + 1) % 3, (axis + 2) % 3
         for high in (0, 1):
             grid = []
-            for i in range(n + 1):
+            for i in range(count[u] + 1):
                 row = []
-                for j in range(n + 1):
+                for j in range(count[v] + 1):
                     p = [0, 0, 0]
-                    p[axis], p[u], p[v] = high * side, 4 * i, 4 * j
+                    p[axis], p[u], p[v] = high * 4 * count[axis], 4 * i, 4 * j
                     row.append(index.setdefault(tuple(p), len(index)))
                     if row[-1] == len(points):
                         points.append(p)
                 grid.append(row)
-            for i in range(n):
-                for j in range(n):
+            for i in range(count[u]):
+                for j in range(count[v]):
                     a, b, c, d = grid[i][j], grid[i + 1][j], grid[i + 1][j + 1], grid[i][j + 1]
                     for f in ([[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]):
                         faces.append(f if high else f[::-1])
     for p in points:
-        inner = [a for a in range(3) if 0 < p[a] < side]
+        inner = [a for a in range(3) if 0 < p[a] < 4 * count[a]]
         if len(inner) == 2:
             axis = 3 - sum(inner)
-            p[axis] += (1 if p[axis] == side else -1) * int(rng.integers(0, 2))
+            p[axis] += (1 if p[axis] == 4 * count[axis] else -1) * int(rng.integers(0, 2))
     middle = next(p for p in points if p[0] == p[1] == 4 * (n // 2) and p[2] <= 0)
     middle[2] = spike
     return points, faces
@@ -520,6 +521,37 @@ def test_a_shell_certified_patch_by_patch_meets_itself_exactly_where_pairs_of_it
         return
     reported, _ = search_pairs(np.array(points, dtype=float) * 2.0 ** scale, faces)
     assert reported == crossing_pairs(points, faces)
+
+
+def _pairs_near(points, faces, moved):
+    """Every crossing pair of faces when only the faces `moved` were moved off a closed shell that
+    did not meet itself: each such pair holds one of them, and the other face's box meets its box
+    (tested exactly pair by pair)."""
+    corners = np.array(points, dtype=np.int64)[np.array(faces)]
+    low, high = corners.min(axis=1), corners.max(axis=1)
+    near = np.zeros(len(faces), dtype=bool)
+    for t in moved:
+        near |= np.all((low <= high[t]) & (low[t] <= high), axis=1)
+    subset = np.flatnonzero(near)
+    return {(int(subset[a]), int(subset[b])) for a, b in crossing_pairs(points, [faces[t] for t in subset])}
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.integers(0, 2 ** 31), st.sampled_from([12, 19]), st.sampled_from([0, 30]))
+def test_a_thin_slab_meets_itself_exactly_where_its_pushed_vertex_makes_faces_cross(seed, spike, scale):
+    """A finely cut slab four squares thick and twenty-four wide, 3,072 faces (the coarse grid's
+    cells are then bounded by its thickness, not by its number of faces), the middle of its bottom
+    pushed up short of the top (12) or through it (19): the pairs found are exactly those of the
+    pushed vertex's faces, on one thread or two."""
+    rng = np.random.default_rng(seed)
+    points, faces = _finely_cut_box(24, rng, spike, depth=4)
+    pushed = next(i for i, p in enumerate(points) if p[0] == p[1] == 48 and p[2] == spike)
+    expected = _pairs_near(points, faces, [t for t, f in enumerate(faces) if pushed in f])
+    assert bool(expected) == (spike == 19)
+    geometry = ExactGeometry(np.array(points, dtype=float) * 2.0 ** scale)
+    for threads in (1, 2):
+        reported, pinched = geometry.crossing_pairs(np.array(faces), threads=threads)
+        assert {tuple(p) for p in reported.tolist()} == expected and pinched == 0
 
 
 def test_a_shell_certified_patch_by_patch_is_found_the_same_on_any_thread_count():

@@ -221,3 +221,23 @@ def test_import_massprops_loads_its_names_and_subpackages_on_first_use():
     done = subprocess.run([sys.executable, "-c", LAZY], capture_output=True, text=True, check=True)
     assert json.loads(done.stdout) == {"light": True, "names": ["Pose", "mass_properties", "read", "integrate"],
                                        "missing": "AttributeError"}
+
+
+HELP_PROBE = """
+import json, sys
+from massprops.cli import main
+sys.argv = ["massprops", sys.argv[1]]
+try:
+    main()                                # as the installed script calls it
+except SystemExit as exit:
+    code = exit.code
+print(json.dumps({"exit": code, "numpy": "numpy" in sys.modules}))
+"""
+
+
+@pytest.mark.parametrize("option, code, said", [("--version", 0, "version"), ("--no-such-option", 2, "No such option")])
+def test_the_script_loads_numpy_only_for_a_command(option, code, said):
+    """The script loads the pipeline before click parses (issue 24), but only when a command is named."""
+    done = subprocess.run([sys.executable, "-c", HELP_PROBE, option], capture_output=True, text=True, check=True)
+    assert json.loads(done.stdout.splitlines()[-1]) == {"exit": code, "numpy": False}
+    assert said in done.stdout + done.stderr

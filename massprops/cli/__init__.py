@@ -10,7 +10,6 @@ from __future__ import annotations
 import errno
 import gc
 import importlib
-import importlib.util
 import os
 import sys
 import warnings
@@ -53,10 +52,18 @@ class LazyGroup(click.Group):
     """
 
     def __call__(self, *args, **kwargs):
-        """The ``massprops`` script (and ``python -m massprops``): one BLAS thread, then the command."""
+        """The ``massprops`` script (and ``python -m massprops``): one BLAS thread, the pipeline, the command."""
         if "numpy" not in sys.modules:
             for name in BLAS_THREADS:
                 os.environ.setdefault(name, "1")
+        # The pipeline (and numpy) is loaded here, a few frames below the script, when a command is named
+        # (not for `massprops --version`).  Loaded from the group's callback, under click's frames, the
+        # imports' calls kept crossing a boundary of the interpreter's frame stack (CPython 3.11 keeps it in
+        # 16 KiB chunks, mapped and unmapped as a call crosses one): 1,800 mmap/munmap pairs and as many
+        # page faults, about 8 ms of a 97 ms start (issue 24).  The callback's own load is then a no-op.
+        arguments = kwargs.get("args", args[0] if args else None)
+        if any(argument in COMMANDS for argument in (sys.argv[1:] if arguments is None else arguments)):
+            _load_pipeline()
         return super().__call__(*args, **kwargs)
 
     def invoke(self, ctx):
@@ -73,6 +80,7 @@ class LazyGroup(click.Group):
             ctx.exit(1)
 
     def list_commands(self, ctx):
+        import importlib.util          # for help only: a wheel's start-up does not load it otherwise
         return [name for name, (module, _) in COMMANDS.items() if name not in HIDDEN and importlib.util.find_spec(
             f"{__name__}.{module}") is not None]
 
@@ -86,6 +94,24 @@ class LazyGroup(click.Group):
             if exc.name == f"{__name__}.{module}":
                 return None
             raise
+
+
+def _load_pipeline():
+    """Load the pipeline every command runs (and numpy) with the collector paused, then freeze what is loaded.
+
+    After the script chose the BLAS threads, before the command's options are parsed.  numpy first,
+    on its own: its imports nest deepest, and under massprops' own import chain they still crossed a
+    chunk of the frame stack (LazyGroup.__call__).  What is loaded (modules, classes, click's commands)
+    lives until the process ends: frozen (``gc.freeze``), the cyclic garbage collector does not walk it
+    again, during the command or at exit.  Left unfrozen until the group's callback, the first young
+    generation pass walked all of it while click parsed the options (6M instructions, issue 24).
+    """
+    def load():
+        import numpy  # noqa: F401
+        from .. import mass_properties  # noqa: F401
+
+    _load_quietly(load)
+    gc.freeze()
 
 
 def _output_failed(exc):
@@ -112,9 +138,4 @@ def main():
     # Overflow and invalid values are checked and reported in words; numpy's own notes would be noise.
     if not os.environ.get("MASSPROPS_DEBUG"):
         warnings.filterwarnings("ignore", category=RuntimeWarning)
-    # The pipeline every command runs (and numpy), loaded with the collector paused (massprops/__init__.py),
-    # now: after the script chose the BLAS threads, before the command's options are parsed.
-    from .. import mass_properties  # noqa: F401
-    # What is loaded now (modules, classes, click's commands) lives until the process ends: the
-    # cyclic garbage collector need not look at it again, during the command or at exit.
-    gc.freeze()
+    _load_pipeline()

@@ -118,13 +118,13 @@ class Bytes(click.ParamType):
     """A size in bytes: ``1000000``, ``500k``, ``200MB``, ``2G`` (powers of 1000)."""
 
     name = "BYTES"
-    _FORM = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKMGT]?)B?\s*")
+    _FORM = r"\s*(\d+(?:\.\d+)?)\s*([kKMGT]?)B?\s*"      # compiled by re on first use, not at start-up
     _SCALE = {"": 1, "k": 10 ** 3, "K": 10 ** 3, "M": 10 ** 6, "G": 10 ** 9, "T": 10 ** 12}
 
     def convert(self, value, param, ctx):
         if isinstance(value, int):
             return value
-        match = self._FORM.fullmatch(str(value))
+        match = re.fullmatch(self._FORM, str(value))
         size = int(float(match.group(1)) * self._SCALE[match.group(2)]) if match else 0
         if size <= 0:
             self.fail(f"expected a positive size such as 500MB or 2G, got {value!r}", param, ctx)

@@ -22,7 +22,6 @@ with ``L`` the first three rows and ``t`` the fourth.
 from __future__ import annotations
 
 import posixpath
-import zipfile
 
 import numpy as np
 
@@ -146,6 +145,7 @@ def _root_part(archive):
     names = {name.lower(): name for name in archive.namelist()}
     rels = names.get("_rels/.rels")
     if rels is not None:
+        import zipfile
         from lxml import etree
         try:
             with archive.open(rels) as handle:
@@ -218,17 +218,17 @@ class _Walk:
 def _unpacking_errors():
     """What zipfile and its decompressors raise for damaged members."""
     import lzma
+    import zipfile
     import zlib
     # bz2 raises OSError and ValueError; an encrypted member RuntimeError; an unknown method NotImplementedError.
     return (zipfile.BadZipFile, zlib.error, lzma.LZMAError, OSError, EOFError, NotImplementedError, RuntimeError,
             ValueError)
 
 
-_UNPACKING = _unpacking_errors()
-
-
 def read_graph(path, *, max_instances=None, max_depth=None):
     """The :class:`Graph` of a 3MF file, checked before it is expanded (limits: see :func:`graph_limits`)."""
+    import zipfile      # here, not at import: zipfile loads pathlib, shutil, bz2 and lzma (5 ms of start-up)
+
     max_instances, max_depth = graph_limits(max_instances, max_depth)
     try:
         archive = zipfile.ZipFile(path)
@@ -257,7 +257,7 @@ def read_graph(path, *, max_instances=None, max_depth=None):
                 walk.measure(key)
         except MeshFormatError:
             raise
-        except _UNPACKING as exc:
+        except _unpacking_errors() as exc:
             raise MeshFormatError(f"cannot unpack the 3MF ({reason(exc, 'not a readable zip archive')})", path=path,
                                   fix=_FIX) from None
     _check_totals(walk, items, path, max_instances)

@@ -175,8 +175,9 @@ def check_shells(mesh, path=None):
         labels = _zeros(faces.shape[0])
     # Balanced, so every edge is used an even number of times: exactly twice when none is used more.
     two_faces_an_edge = edges.max_uses <= 2 and edges.collapsed == 0
-    return MeshChecks(closed=True, orientation="consistent", shells=n_shells, boundary_edges=0,
-                      duplicate_faces=0, degenerate_faces=edges.degenerate_faces), labels, two_faces_an_edge
+    # closed, orientation, shells, boundary_edges, duplicate_faces, degenerate_faces, inward_shells_outside: every
+    # field by position, the record's quickest construction (once a part in a batch)
+    return MeshChecks(True, "consistent", n_shells, 0, 0, edges.degenerate_faces, 0), labels, two_faces_an_edge
 
 
 def _zeros(m):

@@ -340,12 +340,13 @@ class MassProperties:
                                     f"{'is' if len(small) == 1 else 'are'} below 2.2e-308, the smallest normal "
                                     "double", path=path,
                                     fix="give the mesh in a smaller length unit (e.g. {unit}) or rescale it")
-        bounds = ErrorBounds(volume=error_volume, mass=error_mass, center_of_mass=error_com,
-                             inertia_com=error_inertia)
+        # volume, mass, center_of_mass, inertia_com, input_resolution, principal_source: every field by
+        # position, the record's quickest construction (once a part in a batch)
+        bounds = ErrorBounds(error_volume, error_mass, error_com, error_inertia, {}, None)
         if pose is not None and unit is not None:
             # A pose's translation is given in mesh units, like the mesh; outputs are SI.
             pose = Pose(pose.rotation, pose.translation * unit_length(unit))
-        return cls(*values, com, inertia, bounds, pose or _NO_POSE, unit)
+        return cls(*values, com, inertia, bounds, pose or _NO_POSE, unit, DEFAULT_RTOL)
 
     @classmethod
     def from_cell_moments(cls, volume_moments, mass_moments, *, mass=None, unit=None, pose=None, path=None):

@@ -51,39 +51,38 @@ def csv_row(obj, *, status="ok", message=""):
     return row
 
 
-def _finite_cells(values):
-    # a float's repr, or an empty cell for one beyond double precision (null in the JSON object)
-    return [repr(v) if math.isfinite(v) else "" for v in values]
-
-
 def result_csv_line(result):
     """The CSV line (with its line feed) of a computed :class:`massprops.result.Result`, every quantity in it.
 
     The same text as ``csv_line(csv_row(result_dict(result)))`` (what ``props --format csv`` writes), formed
-    from the result's numbers directly: a batch writes one per file.
+    from the result's numbers directly: a batch writes one per file.  Only the file name can need quoting
+    (a number's repr holds no comma, quote or line break).
     """
     p = result.properties
     error = p.error
-    cells = [result.file, "ok", "", result.triangles, *_finite_cells((float(p.volume), float(p.mass)))]
-    if p.center_of_mass is None:
-        cells += [""] * 3
-    else:
-        cells += _finite_cells(p.center_of_mass.tolist())
+    values = [float(p.volume), float(p.mass)]
+    values += _NONE_3 if p.center_of_mass is None else p.center_of_mass.tolist()
     if p.inertia_com is None:
-        cells += [""] * 18
-        err_inertia = ""
+        values += _NONE_18
+        err_inertia = None
     else:
         (xx, xy, xz), (_, yy, yz), (_, _, zz) = p.inertia_com.tolist()
         found = p.principal
-        cells += _finite_cells((xx, yy, zz, xy, xz, yz, *found.moments.tolist(), *found.axes.ravel().tolist()))
-        err_inertia = _cell_of(error.inertia_com)
-    cells += [_cell_of(error.volume), err_inertia, _cell_of(result.elapsed_s)]
-    line = _plain_csv_line(cells)
-    return line if line is not None else ",".join(map(_csv_field, cells)) + "\n"
+        values += (xx, yy, zz, xy, xz, yz)
+        values += found.moments.tolist()
+        values += found.axes.ravel().tolist()
+        err_inertia = error.inertia_com
+    values += (_float_or_none(error.volume), _float_or_none(err_inertia), _float_or_none(result.elapsed_s))
+    isfinite = math.isfinite
+    numbers = ",".join(["" if v is None or not isfinite(v) else repr(v) for v in values])
+    return f"{_csv_field(result.file)},ok,,{result.triangles},{numbers}\n"
 
 
-def _cell_of(value):
-    return "" if value is None else _finite_cells((float(value),))[0]
+_NONE_3, _NONE_18 = (None,) * 3, (None,) * 18
+
+
+def _float_or_none(value):
+    return None if value is None else float(value)
 
 
 def to_csv(rows, columns=None):

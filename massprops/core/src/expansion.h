@@ -72,6 +72,36 @@ static inline dd dd_mul(dd x, dd y)
 
 static inline dd dd_of(double hi, double lo) { dd r = {hi, lo}; return r; }
 
+/* det[a b c] = Σ sign · a_i b_j c_k over the six permutations (i, j, k), as a double-double hi + lo
+ * from error-free products, and the permanent Σ|major| (the error is det_double_double_error()'s,
+ * kernel_dd.c).  Inline: the kernel's lanes (kernel.c) call it lane by lane in a loop the compiler
+ * vectorises; the same operations in the same order, the same bits. */
+static inline __attribute__((always_inline)) void det_dd(const double a[3], const double b[3], const double c[3],
+                                                         double *hi, double *lo, double *permanent)
+{
+    static const int I[6] = {0, 1, 2, 0, 1, 2}, J[6] = {1, 2, 0, 2, 0, 1}, K[6] = {2, 0, 1, 1, 2, 0};
+    double major[6], rest[17], t01, t2, root, sum = 0.0;
+    int t, n = 0;
+    for (t = 0; t < 6; t++) {
+        double p, pe, ck = t < 3 ? c[K[t]] : -c[K[t]];
+        two_product(a[I[t]], b[J[t]], &p, &pe);
+        two_product(p, ck, &major[t], &rest[n++]);
+        rest[n++] = pe * ck;
+        sum += fabs(major[t]);
+    }
+    /* the tree: (m0 + m3), (m1 + m4), (m2 + m5); then the first two; then the third */
+    two_sum(major[0], major[3], &major[0], &rest[n++]);
+    two_sum(major[1], major[4], &major[1], &rest[n++]);
+    two_sum(major[2], major[5], &major[2], &rest[n++]);
+    two_sum(major[0], major[1], &t01, &rest[n++]);
+    two_sum(t01, major[2], &root, &rest[n++]);
+    t2 = 0.0;
+    for (t = 0; t < 17; t++)
+        t2 += rest[t];
+    fast_two_sum(root, t2, hi, lo);
+    *permanent = sum;
+}
+
 /* Exact running sum: non-overlapping partials in increasing magnitude (Shewchuk, as
  * CPython's math.fsum).  At most ~40 partials can be non-overlapping for finite doubles;
  * a non-finite input makes the sum special (NaN or the infinity, as IEEE addition). */

@@ -27,6 +27,17 @@
 #include <string.h>
 
 #define LANES 8
+
+/* On x86-64 Linux the block loop and the hard faces' rotations are also compiled for AVX-512 (the
+ * eight lanes in one vector) and AVX2 (four a vector instead of two), and the best the CPU has is
+ * picked when the module loads; all do the same IEEE operations in the same order (no contraction,
+ * no reassociation), so the results are the same bits. */
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
+#define VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define VECTOR_CLONES
+#endif
+
 #define REFINE_ABOVE (64.0 * UNIT_ROUNDOFF)
 
 enum { Q_DET, Q_F0, Q_F1, Q_F2, Q_XX, Q_YY, Q_ZZ, Q_XY, Q_YZ, Q_ZX, SUMMED };
@@ -109,36 +120,6 @@ static double exact_det(const double a[3], const double b[3], const double c[3])
     return exact_value(&sum);
 }
 
-/* A hard face: the best of its rotations, else double-double, else exact.  Returns 0, 1 or 2. */
-static int refine(const double corner[3][3], double *det, double *bound)
-{
-    double d, e, area, products, hi, lo, permanent;
-    det_and_bound(corner[1], corner[2], corner[0], &d, &e, &area, &products);
-    if (e < *bound) {
-        *det = d;
-        *bound = e;
-    }
-    det_and_bound(corner[2], corner[0], corner[1], &d, &e, &area, &products);
-    if (e < *bound) {
-        *det = d;
-        *bound = e;
-    }
-    if (*bound <= REFINE_ABOVE * fabs(*det))
-        return 0;
-    det_double_double(corner[0], corner[1], corner[2], &hi, &lo, &permanent);
-    d = hi + lo;
-    /* hi + lo is within det_double_double_error() * permanent; rounding it adds u |d|. */
-    e = UNIT_ROUNDOFF * fabs(d) + det_double_double_error() * permanent;
-    if (e <= REFINE_ABOVE * fabs(d) && e < *bound) {
-        *det = d;
-        *bound = e;
-        return 1;
-    }
-    *det = exact_det(corner[0], corner[1], corner[2]);
-    *bound = UNIT_ROUNDOFF * fabs(*det);
-    return 2;
-}
-
 /* Lane accumulators of one block: Sum2 (hi, lo) per summed quantity, plain sums for the rest. */
 typedef struct {
     double hi[SUMMED][LANES], lo[SUMMED][LANES];
@@ -169,6 +150,91 @@ static inline void second_term(Lanes *acc, int q, const double *restrict det, do
 typedef struct {
     double p[3][3][LANES];                   /* [corner][axis][lane] */
 } Corners;
+
+/* det and bound of the lanes' faces taken from corner `first` on ((first, first + 1, first + 2) mod 3):
+ * det_and_bound's operations in its order (the same bits), lane by lane so that it vectorises. */
+static inline __attribute__((always_inline)) void rotated(const Corners *restrict c, int first, double *restrict det,
+                                                          double *restrict bound)
+{
+    const int j = (first + 1) % 3, k = (first + 2) % 3;
+    int l;
+    for (l = 0; l < LANES; l++) {
+        double ax = c->p[first][0][l], ay = c->p[first][1][l], az = c->p[first][2][l];
+        double e1x = c->p[j][0][l] - ax, e1y = c->p[j][1][l] - ay, e1z = c->p[j][2][l] - az;
+        double e2x = c->p[k][0][l] - ax, e2y = c->p[k][1][l] - ay, e2z = c->p[k][2][l] - az;
+        double p0 = e1y * e2z, q0 = e1z * e2y, p1 = e1z * e2x, q1 = e1x * e2z, p2 = e1x * e2y, q2 = e1y * e2x;
+        double n0 = p0 - q0, n1 = p1 - q1, n2 = p2 - q2;
+        double s0 = fabs(p0) + fabs(q0), s1 = fabs(p1) + fabs(q1), s2 = fabs(p2) + fabs(q2);
+        det[l] = (ax * n0 + ay * n1) + az * n2;
+        bound[l] = DET_BOUND * ((fabs(ax) * s0 + fabs(ay) * s1) + fabs(az) * s2);
+    }
+}
+
+/* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
+ * least bound), and double-double or exact arithmetic if that is still hard.  The other two
+ * rotations are found for all lanes at once (hard faces come in runs: slivers, flat parts). */
+/* det_double_double (kernel_dd.c) of every lane's face, lane by lane so that it vectorises (det_dd
+ * inlined: the same bits as the function's). */
+static inline __attribute__((always_inline)) void lanes_det_double_double(const Corners *restrict c,
+                                                                        double *restrict hi, double *restrict lo,
+                                                                        double *restrict permanent)
+{
+    for (int l = 0; l < LANES; l++) {
+        const double a[3] = {c->p[0][0][l], c->p[0][1][l], c->p[0][2][l]};
+        const double b[3] = {c->p[1][0][l], c->p[1][1][l], c->p[1][2][l]};
+        const double d[3] = {c->p[2][0][l], c->p[2][1][l], c->p[2][2][l]};
+        double h, e, sum;
+        det_dd(a, b, d, &h, &e, &sum);
+        hi[l] = h, lo[l] = e, permanent[l] = sum;
+    }
+}
+
+/* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
+ * least bound), and double-double or exact arithmetic if that is still hard (refine's steps, the
+ * double-double determinant of all lanes at once when any needs it).  The other two rotations are
+ * found for all lanes at once (hard faces come in runs: slivers, flat parts). */
+VECTOR_CLONES static __attribute__((noinline)) void hard_faces(const Corners *restrict c, int count, double *restrict det,
+                                                double *restrict bound, BlockResult *r)
+{
+    double det1[LANES], bound1[LANES], det2[LANES], bound2[LANES], hi[LANES], lo[LANES], permanent[LANES];
+    int l, k, i, still = 0, hard[LANES] = {0};
+    rotated(c, 1, det1, bound1);
+    rotated(c, 2, det2, bound2);
+    for (l = 0; l < count; l++)
+        if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
+            if (bound1[l] < bound[l]) {
+                det[l] = det1[l];
+                bound[l] = bound1[l];
+            }
+            if (bound2[l] < bound[l]) {
+                det[l] = det2[l];
+                bound[l] = bound2[l];
+            }
+            hard[l] = bound[l] > REFINE_ABOVE * fabs(det[l]);
+            still |= hard[l];
+        }
+    if (!still)
+        return;
+    lanes_det_double_double(c, hi, lo, permanent);
+    for (l = 0; l < count; l++)
+        if (hard[l]) {
+            /* hi + lo is within det_double_double_error() * permanent; rounding it adds u |d|. */
+            double d = hi[l] + lo[l], e = UNIT_ROUNDOFF * fabs(d) + det_double_double_error() * permanent[l];
+            r->refined++;
+            if (e <= REFINE_ABOVE * fabs(d) && e < bound[l]) {
+                det[l] = d;
+                bound[l] = e;
+            } else {
+                double corner[3][3];
+                for (k = 0; k < 3; k++)
+                    for (i = 0; i < 3; i++)
+                        corner[k][i] = c->p[k][i][l];
+                det[l] = exact_det(corner[0], corner[1], corner[2]);
+                bound[l] = UNIT_ROUNDOFF * fabs(det[l]);
+                r->exact++;
+            }
+        }
+}
 
 /* LANES faces from f0 (count of them real; the rest contribute zeros).  Returns 0, or -1 and
  * the bad face in r->bad_face when an index is out of range. */
@@ -216,17 +282,7 @@ static inline __attribute__((always_inline)) int lane_batch(const Work *w, int64
             det[l] = area[l];
         }
     } else if (hard) {
-        for (l = 0; l < count; l++)
-            if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
-                double corner[3][3];
-                int kind;
-                for (k = 0; k < 3; k++)
-                    for (i = 0; i < 3; i++)
-                        corner[k][i] = c.p[k][i][l];
-                kind = refine(corner, &det[l], &bound[l]);
-                r->refined += kind >= 1;
-                r->exact += kind == 2;
-            }
+        hard_faces(&c, count, det, bound, r);
     }
     if (in->weights)
         for (l = 0; l < LANES; l++) {
@@ -267,15 +323,6 @@ static inline __attribute__((always_inline)) int lane_batch(const Work *w, int64
     }
     return 0;
 }
-
-/* On x86-64 Linux the block loop is also compiled for AVX2 (four lanes a vector instead of two)
- * and the better one is picked when the module loads; both do the same IEEE operations in the
- * same order (no contraction, no reassociation), so the results are the same bits. */
-#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
-#define VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define VECTOR_CLONES
-#endif
 
 VECTOR_CLONES static void run_block(void *arg, int64_t block)
 {

@@ -12,8 +12,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* det[a b c] = Σ sign · a_i b_j c_k over the six permutations (i, j, k). */
-static const int PI[6] = {0, 1, 2, 0, 1, 2}, PJ[6] = {1, 2, 0, 2, 0, 1}, PK[6] = {2, 0, 1, 1, 2, 0};
+/* The vertex passes below are also compiled for AVX-512 and AVX2 (x86-64 Linux), picked when the module
+ * loads: the same IEEE operations, the same bits. */
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
+#define PASS_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define PASS_CLONES
+#endif
 
 /* The error of hi + lo relative to the permanent P = Σ|major| (≥ (1 − γ5) of the exact Σ|major|).
  * lo is a float sum of 17 values (γ16 of their magnitudes): the 5 exact TwoSum errors of the
@@ -28,27 +33,7 @@ double det_double_double_error(void)
 void det_double_double(const double a[3], const double b[3], const double c[3], double *hi, double *lo,
                        double *permanent)
 {
-    double major[6], rest[17], t01, t2, e, root;
-    int t, n = 0;
-    *permanent = 0.0;
-    for (t = 0; t < 6; t++) {
-        double p, pe, ck = t < 3 ? c[PK[t]] : -c[PK[t]];
-        two_product(a[PI[t]], b[PJ[t]], &p, &pe);
-        two_product(p, ck, &major[t], &rest[n++]);
-        rest[n++] = pe * ck;
-        *permanent += fabs(major[t]);
-    }
-    /* the tree: (m0 + m3), (m1 + m4), (m2 + m5); then the first two; then the third */
-    two_sum(major[0], major[3], &major[0], &rest[n++]);
-    two_sum(major[1], major[4], &major[1], &rest[n++]);
-    two_sum(major[2], major[5], &major[2], &rest[n++]);
-    two_sum(major[0], major[1], &t01, &rest[n++]);
-    two_sum(t01, major[2], &root, &rest[n++]);
-    t2 = 0.0;
-    for (t = 0; t < n; t++)
-        t2 += rest[t];
-    fast_two_sum(root, t2, hi, &e);
-    *lo = e;
+    det_dd(a, b, c, hi, lo, permanent);
 }
 
 /* ---- the double-double pass ------------------------------------------------------------- */
@@ -290,39 +275,88 @@ void bounding_box(const double *vertices, int64_t n, double low[3], double high[
     high[0] = hx, high[1] = hy, high[2] = hz;
 }
 
-void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])
+/* Two vertices (six coordinates) at a time, with no branch, so that the loop vectorises: TwoSum's error
+ * is zero exactly when the difference is exact, and it is NaN when the sum is (the test before was
+ * `error != 0.0 || sum != sum`), so a coordinate is inexact exactly when its error's bits other than
+ * the sign are not all zero; those bits are or-ed into a word per coordinate, looked at every
+ * SHIFT_CHUNK vertices to stop once every axis is inexact. */
+#define SHIFT_CHUNK 512
+
+static inline uint64_t magnitude_bits(double x)
 {
-    int64_t v;
-    int i;
-    for (i = 0; i < 3; i++)
-        exact[i] = 1;
-    for (v = 0; v < n && (exact[0] | exact[1] | exact[2]); v++)
-        for (i = 0; i < 3; i++) {
-            double sum, error;
-            two_sum(vertices[3 * v + i], -centre[i], &sum, &error);
-            /* TwoSum's error is zero exactly when the difference is exact (NaN: inexact). */
-            if (error != 0.0 || sum != sum)
-                exact[i] = 0;
-        }
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    return bits & 0x7FFFFFFFFFFFFFFFULL;
 }
 
-int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp, double smallest,
-                      double *out, int64_t *moved)
+PASS_CLONES void shift_is_exact(const double *vertices, int64_t n, const double centre[3], int exact[3])
+{
+    const double minus[6] = {-centre[0], -centre[1], -centre[2], -centre[0], -centre[1], -centre[2]};
+    uint64_t inexact[6] = {0, 0, 0, 0, 0, 0};
+    int64_t v = 0, start, last;
+    int i, j;
+    for (start = 0; start < n; start = last) {
+        last = n - start > SHIFT_CHUNK ? start + SHIFT_CHUNK : n;
+        for (v = start; v + 2 <= last; v += 2) {
+            const double *p = vertices + 3 * v;
+            for (j = 0; j < 6; j++) {
+                double sum, error;
+                two_sum(p[j], minus[j], &sum, &error);
+                inexact[j] |= magnitude_bits(error);
+            }
+        }
+        if (v < last)                                  /* an odd vertex at the end */
+            for (i = 0; i < 3; i++) {
+                double sum, error;
+                two_sum(vertices[3 * v + i], minus[i], &sum, &error);
+                inexact[i] |= magnitude_bits(error);
+            }
+        if ((inexact[0] | inexact[3]) && (inexact[1] | inexact[4]) && (inexact[2] | inexact[5]))
+            break;
+    }
+    for (i = 0; i < 3; i++)
+        exact[i] = !(inexact[i] | inexact[i + 3]);
+}
+
+/* One coordinate scaled, snapped to zero below `smallest`; *tiny set when it was. */
+static inline double scaled_snapped(double x, double reference, int multiply, double factor, int scale_exp,
+                                    double smallest, int *tiny)
+{
+    double d = x - reference, y = multiply ? d * factor : ldexp(d, -scale_exp);
+    int snap = y != 0.0 && fabs(y) < smallest;
+    *tiny |= snap;
+    return snap ? 0.0 : y;
+}
+
+PASS_CLONES int64_t scale_snapped(const double *vertices, int64_t n, const double reference[3], int scale_exp,
+                                  double smallest, double *out, int64_t *moved)
 {
     int64_t v, count = 0;
-    int i, multiply = scale_exp >= -1023 && scale_exp <= 1022;
+    int i, j, multiply = scale_exp >= -1023 && scale_exp <= 1022, any = 0;
     /* 2**-scale_exp when it is a normal double: one multiplication rounds as ldexp does (once, correctly) */
     double factor = multiply ? ldexp(1.0, -scale_exp) : 1.0;
+    if (multiply) {
+        /* two vertices at a time with no branch (vectorised); which vertices were snapped is found after,
+         * in the rare case that any was */
+        const double r[6] = {reference[0], reference[1], reference[2], reference[0], reference[1], reference[2]};
+        int tiny[6] = {0, 0, 0, 0, 0, 0};
+        for (v = 0; v + 2 <= n; v += 2)
+            for (j = 0; j < 6; j++)
+                out[3 * v + j] = scaled_snapped(vertices[3 * v + j], r[j], 1, factor, scale_exp, smallest, &tiny[j]);
+        for (j = 0; j < 6; j++)
+            any |= tiny[j];
+        for (; v < n; v++)
+            for (i = 0; i < 3; i++)
+                out[3 * v + i] = scaled_snapped(vertices[3 * v + i], reference[i], 1, factor, scale_exp, smallest,
+                                                &any);
+        if (!any)
+            return 0;
+    }
     for (v = 0; v < n; v++) {
         int tiny = 0;
-        for (i = 0; i < 3; i++) {
-            double d = vertices[3 * v + i] - reference[i], y = multiply ? d * factor : ldexp(d, -scale_exp);
-            if (y != 0.0 && fabs(y) < smallest) {
-                y = 0.0;
-                tiny = 1;
-            }
-            out[3 * v + i] = y;
-        }
+        for (i = 0; i < 3; i++)
+            out[3 * v + i] = scaled_snapped(vertices[3 * v + i], reference[i], multiply, factor, scale_exp, smallest,
+                                            &tiny);
         if (tiny)
             moved[count++] = v;
     }

@@ -16,6 +16,7 @@
 #include "kernel.h"
 
 #include <math.h>
+#include <string.h>
 
 #define U_ROUND 0x1p-53
 #define MAX_SWEEPS 32
@@ -213,9 +214,14 @@ int frame_choice(const double *vertices, int64_t n, double low[3], double high[3
 /* Whether every coordinate is finite (no NaN, no infinity): surface.py's check before the edges are trusted. */
 int all_finite(const double *values, int64_t count)
 {
+    /* x - x is +0.0 (no bit set) for a finite x, NaN for a NaN or an infinity: the bits or-ed (vectorised) */
+    uint64_t bits = 0;
     int64_t i;
-    int finite = 1;
-    for (i = 0; i < count; i++)
-        finite &= (values[i] - values[i]) == 0.0;      /* x - x is NaN for a NaN or an infinity, else 0 */
-    return finite;
+    for (i = 0; i < count; i++) {
+        double difference = values[i] - values[i];
+        uint64_t b;
+        memcpy(&b, &difference, sizeof b);
+        bits |= b;
+    }
+    return bits == 0;
 }

@@ -334,6 +334,43 @@ typedef void (*edge_fn)(void *ctx, int64_t low, int64_t high, int64_t uses, int6
 
 #define GROUPED 0xFFFFFFFFu        /* never an entry: heads are below 2**31 - 1 */
 
+/* The edges of a vertex with many (a fan's centre), grouped in a table keyed by the higher vertex instead
+ * of sorted: the same edges, uses and balances (counted in another order, which no count depends on).
+ * 0, or -1 when the vertex has too many entries for the table's 16-bit counts or there is no memory
+ * for it (then the caller sorts). */
+static int group_hashed(const uint32_t *list, int64_t k, int64_t v, EdgeSummary *s)
+{
+    typedef struct {
+        uint32_t key;                      /* the higher vertex + 1; 0: an empty slot */
+        uint16_t uses, backward;           /* at most k < 65536 each */
+    } Slot;
+    int bits = 6;
+    uint32_t mask;
+    int64_t i;
+    Slot *table;
+    if (k >= 65536)
+        return -1;
+    while (((int64_t)1 << bits) <= k)      /* more slots than entries: a free slot ends every search */
+        bits++;
+    mask = ((uint32_t)1 << bits) - 1;
+    if (!(table = calloc((size_t)1 << bits, sizeof *table)))
+        return -1;
+    for (i = 0; i < k; i++) {
+        uint32_t key = (list[i] >> 1) + 1, slot = (key * 0x9E3779B1u) >> (32 - bits);
+        while (table[slot].key && table[slot].key != key)
+            slot = (slot + 1) & mask;
+        table[slot].key = key;
+        table[slot].uses++;
+        table[slot].backward += list[i] & 1;
+    }
+    for (i = 0; i <= (int64_t)mask; i++)
+        if (table[i].key)
+            count_edge(s, v, (int64_t)table[i].key - 1, table[i].uses,
+                       (int64_t)table[i].uses - 2 * (int64_t)table[i].backward);
+    free(table);
+    return 0;
+}
+
 static void group_vertex(const EdgeWork *w, int64_t v, EdgeSummary *s, edge_fn each, void *ctx)
 {
     uint32_t *list = w->entries + w->offsets[v];
@@ -354,6 +391,8 @@ static void group_vertex(const EdgeWork *w, int64_t v, EdgeSummary *s, edge_fn e
         }
         return;
     }
+    if (!each && group_hashed(list, k, v, s) == 0)
+        return;
     sort_entries(list, k);
     while (i < k) {
         uint32_t head = list[i] >> 1;

@@ -48,24 +48,33 @@ static int resize(Welder *w, int bits)
     return 0;
 }
 
-int welder_init(Welder *w, int64_t expected)
+/* The table sized for `expected` points; with `cached`, the cache of recent points too (for points that
+ * repeat: without it, welding goes through the table alone, see weld_direct). */
+static int welder_start(Welder *w, int64_t expected, int cached)
 {
     int bits = 10;
     uint64_t k, recent = 64;
     memset(w, 0, sizeof *w);
-    while (recent < RECENT && (int64_t)recent < expected)
+    while (cached && recent < RECENT && (int64_t)recent < expected)
         recent *= 2;
-    w->recent = malloc(recent * sizeof *w->recent);
-    if (!w->recent)
-        return -1;
-    w->recent_mask = recent - 1;
-    for (k = 0; k < recent; k++)
-        w->recent[k].vertex = -1;
+    if (cached) {
+        w->recent = malloc(recent * sizeof *w->recent);
+        if (!w->recent)
+            return -1;
+        w->recent_mask = recent - 1;
+        for (k = 0; k < recent; k++)
+            w->recent[k].vertex = -1;
+    }
     while (bits < 40 && ((int64_t)1 << bits) < 2 * expected)
         bits++;
     if (reserve(&w->vertices, (size_t)(expected > 0 ? expected : 16) * 3 * sizeof(double)) != 0)
         return -1;
     return resize(w, bits);
+}
+
+int welder_init(Welder *w, int64_t expected)
+{
+    return welder_start(w, expected, 1);
 }
 
 void welder_free(Welder *w)
@@ -396,8 +405,16 @@ static int64_t unused_nonfinite(const double *vertices, const int64_t *used, int
     return count;
 }
 
+/* A point welded through the table alone (a welder started without the cache of recent points). */
+static int64_t weld_point_uncached(Welder *w, const double point[3])
+{
+    uint64_t key[3] = {point_bits(point[0]), point_bits(point[1]), point_bits(point[2])};
+    return insert(w, key, point_hash(key));
+}
+
 /* Every corner welded in order, one point at a time (a vertex used again takes its number): for
- * small meshes, whose table stays in cache. */
+ * small meshes, whose table stays in cache.  Each vertex is welded once (then `renumber` holds its
+ * number), so the cache of recent points would hold only misses: it is left out. */
 static int weld_direct(const double *vertices, int64_t n, const void *faces, int faces32, int64_t m,
                        MeshArrays *out, Failure *failure)
 {
@@ -405,7 +422,7 @@ static int weld_direct(const double *vertices, int64_t n, const void *faces, int
     int64_t k, *renumber = malloc((size_t)(n > 0 ? n : 1) * sizeof(int64_t));
     out->m = m;
     out->faces = malloc((size_t)(m > 0 ? m : 1) * 3 * sizeof(index_t));
-    if (!renumber || !out->faces || welder_init(&w, n) != 0) {
+    if (!renumber || !out->faces || welder_start(&w, n, 0) != 0) {
         free(renumber);
         free(out->faces);
         out->faces = NULL;
@@ -418,7 +435,7 @@ static int weld_direct(const double *vertices, int64_t n, const void *faces, int
         int64_t given = corner_index(faces, faces32, k, n, failure);
         if (given < 0)
             break;
-        if (renumber[given] < 0 && (renumber[given] = weld_point64(&w, vertices + 3 * given)) < 0) {
+        if (renumber[given] < 0 && (renumber[given] = weld_point_uncached(&w, vertices + 3 * given)) < 0) {
             fail(failure, ERR_MEMORY, NULL, "out of memory");
             break;
         }

@@ -3,9 +3,10 @@
  *
  * On a shell that is not star-shaped (a torus, most machined parts) the
  * search would otherwise enumerate every pair of neighbouring faces whose
- * boxes meet.  Here a coarse grid (cells 8 times the search's; grid.c, every
- * face at one level, filed by counting into an array of cells; below) is
- * built first, and each cell's faces are certified as
+ * boxes meet.  Here a coarse grid (cells 8 times the search's, finer on fewer
+ * faces or a thin box; grid.c, every face at one level, filed by counting
+ * into an array of cells; below) is built first, and each cell's faces are
+ * certified as
  * one embedded patch when they can be; failing that, each of the cell's
  * children, then each of theirs.  Only faces in some cell that is not
  * certified go on to the pair search.
@@ -71,6 +72,8 @@
 #define PATCH_LEVEL 3
 #define PATCH_FINEST 0
 #define PATCH_ENTRY_LIMIT 3
+/* The widest top cell, as a fraction of the smallest extent of the faces' box (below). */
+#define PATCH_THICKNESS 0.6
 /* A vertex of more faces fails its cells (each cell holding it would walk all its faces: a fan's hub
  * is left to the search, which skips a hub's pairs as a block). */
 #define PATCH_MAX_DEGREE 64
@@ -90,10 +93,12 @@ typedef struct {
 
 typedef struct {
     uint64_t *face_bits;      /* per original face: in the patch being tried (m bits) */
-    uint64_t *vertex_bits;    /* per vertex: seen in the patch being tried (n bits) */
-    Slot *vertex;             /* boundary vertices and their boundary edges' far ends (a hash table) */
+    uint8_t *vertex_count;    /* per vertex: its corners among the faces of the patch being tried (0: not seen) */
+    Slot *vertex;             /* boundary vertices from the BOUNDARY_DIRECT-th on and their boundary edges' far
+                               * ends (a hash table) */
     int64_t vertex_mask;      /* of the table's part in use for the patch being tried (2 (k + 2) slots or more) */
-    int64_t *boundary;        /* the boundary vertices in the table */
+    int64_t *boundary;        /* the boundary vertices, as they are met */
+    int64_t *far;             /* the far end of each one's boundary edge */
     int64_t *loop;            /* the boundary loop's vertices */
     int64_t *seen;            /* the vertices of the patch being tried, as they are first met */
     Segment *segments, *sorted;
@@ -126,7 +131,7 @@ static inline uint64_t mix(uint64_t h)
 
 static void scratch_release(Scratch *sc)
 {
-    free(sc->vertex), free(sc->boundary), free(sc->loop), free(sc->seen), free(sc->segments), free(sc->sorted);
+    free(sc->vertex), free(sc->boundary), free(sc->far), free(sc->loop), free(sc->seen), free(sc->segments), free(sc->sorted);
     for (int d = 0; d < PATCH_LEVEL; d++)
         free(sc->list[d]), free(sc->octants[d]);
 }
@@ -145,11 +150,12 @@ static int patch_reserve(Scratch *sc, int64_t k)
     sc->cap = 0;
     sc->vertex = calloc(vertices, sizeof(Slot));
     sc->boundary = malloc(sizeof(int64_t) * 3 * cap);
+    sc->far = malloc(sizeof(int64_t) * 3 * cap);
     sc->loop = malloc(sizeof(int64_t) * 3 * cap);
     sc->seen = malloc(sizeof(int64_t) * 3 * cap);
     sc->segments = malloc(sizeof(Segment) * 3 * cap);
     sc->sorted = malloc(sizeof(Segment) * 3 * cap);
-    int ok = sc->vertex && sc->boundary && sc->loop && sc->seen && sc->segments && sc->sorted;
+    int ok = sc->vertex && sc->boundary && sc->far && sc->loop && sc->seen && sc->segments && sc->sorted;
     for (int d = 0; d < PATCH_LEVEL; d++) {
         ok = (sc->list[d] = malloc(sizeof(uint32_t) * cap)) && ok;
         ok = (sc->octants[d] = malloc(cap)) && ok;
@@ -159,7 +165,7 @@ static int patch_reserve(Scratch *sc, int64_t k)
         memset(sc->list, 0, sizeof(sc->list));
         memset(sc->octants, 0, sizeof(sc->octants));
         sc->vertex = NULL;
-        sc->boundary = sc->loop = sc->seen = NULL;
+        sc->boundary = sc->far = sc->loop = sc->seen = NULL;
         sc->segments = sc->sorted = NULL;
         sc->failed = 1;
         return -1;
@@ -172,19 +178,39 @@ static inline int bit(const uint64_t *bits, int64_t i) { return (int)(bits[i >> 
 static inline void set_bit(uint64_t *bits, int64_t i) { bits[i >> 6] |= 1ULL << (i & 63); }
 static inline void clear_bit(uint64_t *bits, int64_t i) { bits[i >> 6] &= ~(1ULL << (i & 63)); }
 
-/* Add boundary vertex v, its boundary edge going to `to` (v is not there yet). */
+/* Once a vertex of the patch is known to be on its boundary, its corner count (at most
+ * PATCH_MAX_DEGREE + 1, below BOUNDARY_MARK) is replaced by BOUNDARY_MARK | its rank among the
+ * boundary vertices, for the first BOUNDARY_DIRECT of them; the others are marked BOUNDARY_HASHED
+ * and found in the hash table. */
+#define BOUNDARY_MARK 0x80
+#define BOUNDARY_DIRECT 127
+#define BOUNDARY_HASHED 0xFF
+_Static_assert(PATCH_MAX_DEGREE + 1 < BOUNDARY_MARK, "a corner count is below the boundary mark");
+
+/* Add boundary vertex v, the count-th, its boundary edge going to `to` (v is not there yet). */
 static inline void boundary_add(Scratch *sc, int64_t v, int64_t to, int64_t count)
 {
+    sc->boundary[count] = v;
+    sc->far[count] = to;
+    if (count < BOUNDARY_DIRECT) {
+        sc->vertex_count[v] = (uint8_t)(BOUNDARY_MARK | count);
+        return;
+    }
+    sc->vertex_count[v] = BOUNDARY_HASHED;
     uint64_t i = mix((uint64_t)v) & sc->vertex_mask;
     while (sc->vertex[i].vertex)
         i = (i + 1) & sc->vertex_mask;
     sc->vertex[i] = (Slot){v + 1, to};
-    sc->boundary[count] = v;
 }
 
 /* The far end of boundary vertex v's boundary edge, or -1 when v is not a boundary vertex. */
 static inline int64_t boundary_next(const Scratch *sc, int64_t v)
 {
+    uint8_t mark = sc->vertex_count[v];
+    if (mark < BOUNDARY_MARK)
+        return -1;
+    if (mark != BOUNDARY_HASHED)
+        return sc->far[mark & ~BOUNDARY_MARK];
     for (uint64_t i = mix((uint64_t)v) & sc->vertex_mask;; i = (i + 1) & sc->vertex_mask) {
         if (sc->vertex[i].vertex == v + 1)
             return sc->vertex[i].next;
@@ -197,11 +223,12 @@ static inline int64_t boundary_next(const Scratch *sc, int64_t v)
  * filled. */
 static void clear(Scratch *sc, const Grid *g, const uint32_t *list, int64_t k, int64_t vertices, int64_t boundary)
 {
+    /* every bit set is this patch's: whole words are cleared (no read of each) */
     for (int64_t i = 0; i < k; i++)
-        clear_bit(sc->face_bits, grid_id(g, list[i]));
+        sc->face_bits[grid_id(g, list[i]) >> 6] = 0;
     for (int64_t i = 0; i < vertices; i++)
-        clear_bit(sc->vertex_bits, sc->seen[i]);
-    for (int64_t i = 0; i < boundary; i++) {
+        sc->vertex_count[sc->seen[i]] = 0;
+    for (int64_t i = BOUNDARY_DIRECT; i < boundary; i++) {
         int64_t v = sc->boundary[i];
         for (uint64_t s = mix((uint64_t)v) & sc->vertex_mask; sc->vertex[s].vertex; s = (s + 1) & sc->vertex_mask)
             sc->vertex[s].vertex = 0;
@@ -231,13 +258,103 @@ static int apart(int axis, P p, P q, P r, P s)
     return c != 0 && c == d;
 }
 
-/* The segments sorted by lo (in the array given or the scratch one). */
-RUN_MERGE_SORT(sort_segments, Segment, lo)
+/* The segments x[0..b) of a loop, in its order, sorted by lo (in x or tmp; the one returned).  A
+ * loop's lo rises and falls in few runs (two on a convex one): the falling runs are turned, then
+ * neighbouring runs merged until one is left. */
+static Segment *sort_segments(Segment *x, Segment *tmp, int64_t b)
+{
+    for (int64_t i = 0; i + 1 < b;) {
+        if (!(x[i + 1].lo < x[i].lo)) {
+            i++;
+            continue;
+        }
+        int64_t j = i + 1;
+        while (j + 1 < b && x[j + 1].lo < x[j].lo)
+            j++;
+        for (int64_t lo = i, hi = j; lo < hi; lo++, hi--) {
+            Segment swap = x[lo];
+            x[lo] = x[hi];
+            x[hi] = swap;
+        }
+        i = j + 1;
+    }
+    Segment *src = x, *dst = tmp;
+    for (;;) {
+        int64_t o = 0, runs = 0;
+        for (int64_t start = 0; start < b; runs++) {
+            int64_t mid = start + 1;
+            while (mid < b && !(src[mid].lo < src[mid - 1].lo))
+                mid++;
+            int64_t stop = mid < b ? mid + 1 : b;
+            while (stop < b && !(src[stop].lo < src[stop - 1].lo))
+                stop++;
+            int64_t i = start, j = mid;
+            while (i < mid && j < stop) {
+                int later = src[j].lo < src[i].lo;     /* (a pointer chosen, not a branch) */
+                const Segment *pick = later ? &src[j] : &src[i];
+                dst[o++] = *pick;
+                j += later;
+                i += !later;
+            }
+            while (i < mid)
+                dst[o++] = src[i++];
+            while (j < stop)
+                dst[o++] = src[j++];
+            start = stop;
+        }
+        Segment *swap = src;
+        src = dst;
+        dst = swap;
+        if (runs <= 1)
+            return src;
+    }
+}
+
+/* (d) shown the cheap way, or not: the projected loop loop[0..b) turns one way about a point c, once.
+ * Every edge p q has orient2d(c, p, q) of one strict sign, and one edge only crosses the line
+ * through c parallel to u in the direction that sign gives (w of p below c's, q's at or above it,
+ * for a positive sign; the other way for a negative one).  Then the loop is a simple polygon.
+ * Proof.  Let the sign be positive (else reverse the loop).  Seen from c, the angle of a point
+ * moving along an edge grows strictly (c is on no edge: each orient2d is not zero) and by less
+ * than pi.  An edge crossing that line upwards crosses it right of c: for x where it does,
+ * orient2d(c, p, q) = (x - c) x (q - p) = (x_u - c_u)(q_w - p_w), positive.  With the half-open
+ * rule (below, then at or above) a loop meets that ray once per turn about c, so the loop turns
+ * once: its vertices' angles t_0 < t_1 < ... < t_(b-1) < t_0 + 2 pi.  Each closed edge lies in
+ * the closed sector of its ends' angles; the sectors of two edges that are not consecutive are
+ * disjoint and c is on neither, so those edges do not meet; two consecutive ones share the ray
+ * through their common corner, which each meets there only (neither lies along it).  []  c is any
+ * point (here the mean of the corners, rounded): the predicates are exact for it. */
+static int loop_turns_once(const double *V, const int64_t *loop, int64_t b, int u, int w)
+{
+    double cu = 0.0, cw = 0.0;
+    for (int64_t i = 0; i < b; i++) {
+        cu += V[3 * loop[i] + u];
+        cw += V[3 * loop[i] + w];
+    }
+    cu /= (double)b;
+    cw /= (double)b;
+    int sign = 0;
+    int64_t up = 0, down = 0;
+    P p = V + 3 * loop[b - 1];
+    for (int64_t i = 0; i < b; i++) {
+        P q = V + 3 * loop[i];
+        int o = orient2d(cu, cw, p[u], p[w], q[u], q[w]);
+        if (o == 0 || (sign != 0 && o != sign))
+            return 0;
+        sign = o;
+        up += (p[w] < cw) & (cw <= q[w]);
+        down += (q[w] < cw) & (cw <= p[w]);
+        p = q;
+    }
+    return (sign > 0 ? up : down) == 1;
+}
 
 /* (d): the projected loop loop[0..b) is a simple polygon. */
 static int loop_simple(const double *V, const int64_t *loop, int64_t b, int axis, Scratch *sc)
 {
     int u = axis == 0 ? 1 : 0, w = axis == 2 ? 1 : 2;
+    if (b >= 3 && loop_turns_once(V, loop, b, u, w))
+        return 1;
     for (int64_t i = 0; i < b; i++) {
         int64_t i1 = i + 1 == b ? 0 : i + 1, i2 = i1 + 1 == b ? 0 : i1 + 1;
         P p = V + 3 * loop[i], q = V + 3 * loop[i1], r = V + 3 * loop[i2];
@@ -338,9 +455,10 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
     }
     if (sign == 0)
         return 0;
-    for (int64_t i = 0; i < k; i++)
-        set_bit(sc->face_bits, grid_id(g, list[i]));
-    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2) */
+    /* (b), counting V and B (with (c), B <= V = (k + B + 2) / 2: B <= k + 2).  Each vertex's corners
+     * among the faces are counted first: a vertex with as many as it has faces is interior (all its
+     * faces are in the patch; each is there once), and only the others' cycles are walked for
+     * their runs. */
     int ok = 1, y = axis == 0 ? 1 : 0;
     int64_t n_vertices = 0, n_boundary = 0, start = -1;
     sc->vertex_mask = 1;
@@ -348,58 +466,65 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
         sc->vertex_mask *= 2;
     sc->vertex_mask--;
     const int64_t *F = st->F;
-    for (int64_t i = 0; i < k && ok; i++)
-        for (int c = 0; c < 3 && ok; c++) {
-            int64_t v = g->corner[3 * (int64_t)list[i] + c];
-            if (bit(sc->vertex_bits, v))
-                continue;
-            set_bit(sc->vertex_bits, v);
-            sc->seen[n_vertices++] = v;
-            int64_t b = st->begin[v], degree = st->begin[v + 1] - b, runs = 0, outside = 0, edge = -1;
-            if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
-                ok = 0;
-                break;
-            }
-            /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
-             * leaves the patch goes to the far end of the run's first face), or all of them */
-            int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
+    uint8_t *count = sc->vertex_count;
+    for (int64_t i = 0; i < k; i++) {
+        set_bit(sc->face_bits, grid_id(g, list[i]));
+        const int64_t *c = g->corner + 3 * (int64_t)list[i];
+        for (int j = 0; j < 3; j++) {
+            int64_t v = c[j];
+            sc->seen[n_vertices] = v;
+            n_vertices += !count[v];
+            /* at most PATCH_MAX_DEGREE + 1 is kept (a vertex of more faces fails below) */
+            count[v] += count[v] <= PATCH_MAX_DEGREE;
+        }
+    }
+    for (int64_t i = 0; i < n_vertices && ok; i++) {
+        int64_t v = sc->seen[i];
+        int64_t b = st->begin[v], degree = st->begin[v + 1] - b;
+        if (!(st->flag[v] & STAR_CYCLE) || degree > PATCH_MAX_DEGREE) {
+            ok = 0;
+            break;
+        }
+        if (count[v] == degree) {
+            /* an interior vertex: the star condition (2) along the axis (its link's coordinates) */
+            P pv = V + 3 * v;
+            int64_t upward = 0;
+            int first_above = 0, last_above = 0;
             for (int64_t j = 0; j < degree; j++) {
                 uint32_t r = st->ring[b + j];
-                int in = bit(sc->face_bits, r >> 2);
-                if (in && !last_in) {
-                    runs++;
-                    int corner = r & 3;
-                    edge = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
-                }
-                outside += !in;
-                last_in = in;
+                int corner = r & 3;
+                int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
+                int above = V[3 * x + y] > pv[y];
+                if (j == 0)
+                    first_above = above;
+                else
+                    upward += !last_above && above;
+                last_above = above;
             }
-            /* an interior vertex: the star condition (2) along the axis (its link's coordinates) */
-            int64_t upward = 0;
-            if (outside == 0) {
-                P pv = V + 3 * v;
-                int first_above = 0, last_above = 0;
-                for (int64_t j = 0; j < degree; j++) {
-                    uint32_t r = st->ring[b + j];
-                    int corner = r & 3;
-                    int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
-                    int above = V[3 * x + y] > pv[y];
-                    if (j == 0)
-                        first_above = above;
-                    else
-                        upward += !last_above && above;
-                    last_above = above;
-                }
-                upward += !last_above && first_above;
-            }
-            if (outside == 0)
-                ok = upward == 1;
-            else if (runs == 1 && n_boundary < k + 2) {
-                boundary_add(sc, v, edge, n_boundary++);
-                start = v;
-            } else
-                ok = 0;
+            upward += !last_above && first_above;
+            ok = upward == 1;
+            continue;
         }
+        /* which of its faces are in the patch: one run of them (a boundary vertex; the edge that
+         * leaves the patch goes to the far end of the run's first face) */
+        int64_t runs = 0;
+        uint32_t first = 0;   /* (without branches: which faces are in is not predictable) */
+        int last_in = bit(sc->face_bits, st->ring[b + degree - 1] >> 2);
+        for (int64_t j = 0; j < degree; j++) {
+            uint32_t r = st->ring[b + j];
+            int in = bit(sc->face_bits, r >> 2), starts = in & !last_in;
+            runs += starts;
+            first = starts ? r : first;
+            last_in = in;
+        }
+        if (runs == 1 && n_boundary < k + 2) {
+            int corner = first & 3;
+            int64_t edge = F[3 * (int64_t)(first >> 2) + (corner == 2 ? 0 : corner + 1)];
+            boundary_add(sc, v, edge, n_boundary++);
+            start = v;
+        } else
+            ok = 0;
+    }
     /* (c) */
     if (ok)
         ok = n_boundary >= 3 && 2 * n_vertices - k - n_boundary == 2;
@@ -535,7 +660,8 @@ typedef struct {
     int64_t n;                /* vertices */
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken, or of zero area), its cell, or HOME_SPLIT */
+    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken), its cells (enter), or
+                               * HOME_SPLIT (cells_block) */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
     int64_t *count;           /* per block: valid faces (valid_block), then entries */
     int64_t *valid;           /* per block: valid faces (counted with the entries) */
@@ -545,9 +671,13 @@ typedef struct {
     uint32_t *face;           /* per entry: input face index */
 } Coarse;
 
+/* Faces of zero area are filed too: (a) fails the cells that hold one (and its neighbours are
+ * searched; the search leaves it out).  Testing every face's area here cost more than those
+ * cells, which are rare. */
 static inline int taken_face(const Coarse *co, int64_t t, P a, P b, P e)
 {
-    return (!co->take || co->take[t]) && has_area(a, b, e);
+    (void)a, (void)b, (void)e;
+    return !co->take || co->take[t];
 }
 
 static void valid_block(void *ctx, int64_t block)
@@ -590,7 +720,36 @@ static void used_block(void *ctx, int64_t block)
     memcpy(co->box[block], box, sizeof(box));
 }
 
-/* The block's entries: counted per cell (fill 0), or filed (fill 1). */
+/* Face t entered in the cells of `home` (cells_block): the cell of its box's low corner and, per
+ * bit of home & 7, the next one along x (1), y (2), z (4); counted (fill 0) or filed (fill 1).
+ * (With home, at most HOME_MOST faces and so fewer than 2^23 cells: 8 * cell + 7 < HOME_SPLIT.) */
+static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, uint32_t t)
+{
+    int64_t at[8], n = 0, cell = home >> 3, row = co->dims[0], plane = co->dims[0] * co->dims[1];
+    at[n++] = cell;
+    if (home & 1)
+        at[n++] = cell + 1;
+    if (home & 2) {
+        at[n++] = cell + row;
+        if (home & 1)
+            at[n++] = cell + row + 1;
+    }
+    if (home & 4) {
+        int64_t up = n;
+        for (int64_t i = 0; i < up; i++)
+            at[n++] = at[i] + plane;
+    }
+    for (int64_t i = 0; i < n; i++) {
+        if (fill)
+            co->face[slot[at[i]]++] = t;
+        else
+            slot[at[i]]++;
+    }
+}
+
+/* The block's entries: counted per cell (fill 0), or filed (fill 1).  A face's cells are kept in
+ * home when it reaches at most the next cell along each axis (most faces: a coarse cell is at
+ * least twice most faces' extent); the others' are found again. */
 static void cells_block(Coarse *co, int64_t block, int fill)
 {
     int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0, valid = 0;
@@ -601,10 +760,12 @@ static void cells_block(Coarse *co, int64_t block, int fill)
             uint32_t home = co->home[t];
             if (home == HOME_NONE)
                 continue;
-            if (home != HOME_SPLIT) {
-                co->face[slot[home]++] = (uint32_t)t;
+            if (!(home & 7))
+                co->face[slot[home >> 3]++] = (uint32_t)t;
+            else if (home != HOME_SPLIT)
+                enter(co, slot, home, 1, (uint32_t)t);
+            if (home != HOME_SPLIT)
                 continue;
-            }
         }
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
@@ -619,6 +780,22 @@ static void cells_block(Coarse *co, int64_t block, int fill)
             c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
             c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> co->top;
         }
+        int64_t low = (c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0];
+        if (!fill && c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]) {
+            /* one cell (most faces when the cells are coarse) */
+            slot[low]++;
+            if (co->home)
+                co->home[t] = (uint32_t)(low << 3);
+            n++;
+            continue;
+        }
+        if (!fill && co->home && c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1) {
+            uint32_t home = (uint32_t)(low << 3 | (c1[0] - c0[0]) | (c1[1] - c0[1]) << 1 | (c1[2] - c0[2]) << 2);
+            co->home[t] = home;
+            enter(co, slot, home, 0, (uint32_t)t);
+            n += (1 + (home & 1)) * (1 + (home >> 1 & 1)) * (1 + (home >> 2 & 1));
+            continue;
+        }
         for (int64_t z = c0[2]; z <= c1[2]; z++)
             for (int64_t y = c0[1]; y <= c1[1]; y++)
                 for (int64_t x = c0[0]; x <= c1[0]; x++) {
@@ -630,8 +807,7 @@ static void cells_block(Coarse *co, int64_t block, int fill)
                     n++;
                 }
         if (!fill && co->home)
-            co->home[t] = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]
-                              ? (uint32_t)((c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0]) : HOME_SPLIT;
+            co->home[t] = HOME_SPLIT;
     }
     if (!fill) {
         co->count[block] = n;
@@ -642,9 +818,9 @@ static void cells_block(Coarse *co, int64_t block, int fill)
 static void count_block(void *ctx, int64_t block) { cells_block(ctx, block, 0); }
 static void fill_block(void *ctx, int64_t block) { cells_block(ctx, block, 1); }
 
-/* The coarse grid at level `top` of the faces taken, counted into g (its faces are the input's:
- * g->corner = F) and co->slot; with `stars` (NULL when take is not) the box is that of their used
- * vertices.  0, 1 when nothing is to be done (no face, or more than PATCH_ENTRY_LIMIT entries a
+/* The coarse grid at level co->top (`top` or finer: see PATCH_THICKNESS) of the faces taken,
+ * counted into g (its faces are the input's: g->corner = F) and co->slot; with `stars` (NULL when
+ * take is not) the box is that of their used vertices.  0, 1 when nothing is to be done (no face, or more than PATCH_ENTRY_LIMIT entries a
  * face, as grid_build_at), 2 when the cells are too many for an array (then nothing is built), -1
  * out of memory. */
 static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, const int64_t *shell,
@@ -715,6 +891,13 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     if (!(whole > 0.0))
         whole = 1.0;
     double base = grid_base(extent, samples, whole, 1);
+    /* no top cell wider than PATCH_THICKNESS of the box's smallest extent: a wider cell of a thin
+     * or tube-like shell (a torus: its tube) holds both of its sides and fails, and its faces are
+     * tried again in its children */
+    double thin = dmin(ghi[0] - glo[0], dmin(ghi[1] - glo[1], ghi[2] - glo[2]));
+    while (co->top > PATCH_FINEST && ldexp(base, co->top) > PATCH_THICKNESS * thin)
+        co->top--;
+    top = co->top;
     for (int k = 0; k < 3; k++)
         g->origin[k] = glo[k];
     g->inverse = 1.0 / base;
@@ -769,7 +952,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
                  const Stars *stars, int threads, uint8_t *bad)
 {
     /* Cells of about 1/128 of the faces or fewer (a cell at level l holds about 8 * 4**l faces of a
-     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it. */
+     * smooth surface): finer than a curved part's radius, coarse enough to cover most of it; and
+     * no wider than PATCH_THICKNESS of the box's smallest extent (coarse_build). */
     int64_t taken = take ? 0 : m;
     for (int64_t t = 0; take && t < m; t++)
         taken += take[t] != 0;
@@ -779,6 +963,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     Grid g;
     Coarse co;
     int status = coarse_build(&co, &g, V, F, shell, take, m, top, take ? NULL : stars, threads);
+    top = co.top;
     if (status == 2)
         status = grid_build_at(&g, V, F, shell, take, m, NULL, threads, top, PATCH_ENTRY_LIMIT);
     if (status != 0 || g.n == 0) {
@@ -804,8 +989,8 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     int ready = pa.scratch != NULL;
     for (int k = 0; ready && k < workers; k++) {
         pa.scratch[k].face_bits = calloc((stars->m >> 6) + 1, sizeof(uint64_t));
-        pa.scratch[k].vertex_bits = calloc((stars->n >> 6) + 1, sizeof(uint64_t));
-        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_bits;
+        pa.scratch[k].vertex_count = calloc(stars->n + 1, 1);
+        ready = pa.scratch[k].face_bits && pa.scratch[k].vertex_count;
     }
     if (pa.cut && ready) {
         int64_t n_cuts = 0, at = 0;
@@ -831,7 +1016,7 @@ int patches_mark(const double *V, const int64_t *F, const int64_t *shell, const 
     }
     for (int k = 0; pa.scratch && k < workers; k++) {
         scratch_release(&pa.scratch[k]);
-        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_bits);
+        free(pa.scratch[k].face_bits), free(pa.scratch[k].vertex_count);
     }
     free(pa.cut), free(pa.scratch), free(co.slot);
     grid_free(&g);
