@@ -19,7 +19,8 @@ Measured, each the best of a few runs (the machine is shared):
   next to the memory-read floor (one pass summing the float64 triangles)
   and meshlib's volume-only time on the same mesh;
 - threads: the same with ``MASSPROPS_THREADS=1`` and with every core;
-- read and weld: ``massprops.core.read_stl`` on the binary STLs, 1 and 2 threads, in process;
+- read and weld: ``massprops.core.read_stl`` on the binary STLs and ``read_obj`` on the 1M torus
+  written as OBJ, 1 and 2 threads, in process;
 - startup: ``massprops props`` on a 12-triangle box against ``python -c "import numpy"`` (and the same
   with one BLAS thread, which the ``massprops`` script asks for before numpy loads), and the same pair
   with massprops installed from a wheel built from this tree (what users run), in a virtualenv over
@@ -259,23 +260,46 @@ def kernel(quick):
     return "\n".join(rows)
 
 
-def read_weld(quick):
-    """ns/triangle of reading and welding binary STLs in process (``massprops.core.read_stl``), 1 and 2 threads.
+def torus_obj(triangles):
+    """The torus of :func:`torus_stl` as a Wavefront OBJ with shortest round-trip decimals (written once)."""
+    stl, m = torus_stl(triangles)
+    path = _path(f"torus_{m}.obj")
+    if not os.path.exists(path):
+        from massprops.core import read_stl
+        vertices, faces, _ = read_stl(stl)
+        with open(path + ".part", "w") as f:
+            f.writelines(f"v {x!r} {y!r} {z!r}\n" for x, y, z in vertices.tolist())
+            np.savetxt(f, faces + 1, fmt="f %d %d %d")
+        os.replace(path + ".part", path)
+    return path, m
 
-    Beside the floor of reading the same file into an array (``numpy.fromfile`` of its records).
+
+def read_weld(quick):
+    """ns/triangle of reading and welding in process (``massprops.core.read_stl``, ``read_obj``), 1 and 2 threads.
+
+    Beside the floor of reading the same file: ``numpy.fromfile`` of a binary STL's records, the
+    bytes of an OBJ.
     """
-    from massprops.core import read_stl
-    repeat = 3 if quick else 5
-    rows = ["| binary STL | triangles | file read floor ns/triangle | 1 thread ns/triangle | 2 threads ns/triangle |",
-            "|---|---:|---:|---:|---:|"]
+    from massprops.core import read_obj, read_stl
     from massprops.io.stl import _RECORD
-    for name, path in (("icosphere(8)", icosphere_stl()), ("torus", torus_stl(1_000_000)[0])):
-        m = (os.path.getsize(path) - 84) // 50
-        floor = _time(lambda: np.fromfile(path, dtype=_RECORD, offset=84), repeat)
+    repeat = 3 if quick else 5
+    rows = ["| file | triangles | file read floor ns/triangle | 1 thread ns/triangle | 2 threads ns/triangle |",
+            "|---|---:|---:|---:|---:|"]
+
+    def raw(path):
+        with open(path, "rb") as f:
+            return f.read()
+
+    files = (("icosphere(8), binary STL", icosphere_stl(), read_stl, lambda p: np.fromfile(p, dtype=_RECORD, offset=84)),
+             ("torus, binary STL", torus_stl(1_000_000)[0], read_stl, lambda p: np.fromfile(p, dtype=_RECORD, offset=84)),
+             ("torus, OBJ (shortest round-trip decimals)", torus_obj(1_000_000)[0], read_obj, raw))
+    for name, path, reader, plain in files:
+        m = reader(path)[1].shape[0]
+        floor = _time(lambda: plain(path), repeat)
         ours = {}
         for threads in ("1", "2", "1", "2"):       # taking turns: the machine's speed drifts
             os.environ["MASSPROPS_THREADS"] = threads
-            ours[threads] = min(ours.get(threads, float("inf")), _time(lambda: read_stl(path), repeat))
+            ours[threads] = min(ours.get(threads, float("inf")), _time(lambda: reader(path), repeat))
         os.environ.pop("MASSPROPS_THREADS")
         rows.append(f"| {name} | {m:,} | {floor / m * 1e9:.1f} | {ours['1'] / m * 1e9:.1f} | {ours['2'] / m * 1e9:.1f} |")
     return "\n".join(rows)
