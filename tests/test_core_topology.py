@@ -327,3 +327,19 @@ def test_welding_on_several_threads_numbers_vertices_as_one_thread_does(monkeypa
         if dtype == np.float32:
             mesh = read(path)
             assert mesh.faces.ravel().tolist() == expected and np.array_equal(mesh.vertices, vertices)
+
+
+def test_welding_a_mesh_whose_faces_fill_32_mib_numbers_vertices_by_first_appearance(monkeypatch):
+    """From 32 MiB of faces (1.4M triangles) a second thread faults the weld's arrays in meanwhile."""
+    rng = np.random.default_rng(24)
+    pool = np.unique(rng.normal(size=(400_000, 3)).astype(np.float32), axis=0)
+    chosen = rng.integers(0, pool.shape[0], size=3 * 1_400_000)
+    _, first = np.unique(chosen, return_index=True)              # each pool point's first corner
+    label = np.empty(pool.shape[0], dtype=np.int64)
+    label[chosen[np.sort(first)]] = np.arange(first.size)        # numbered in order of first appearance
+    corners = pool[chosen]
+    for threads in ("1", "2"):
+        monkeypatch.setenv("MASSPROPS_THREADS", threads)
+        vertices, faces = weld_corners(corners)
+        assert np.array_equal(faces.ravel(), label[chosen]), threads
+        assert np.array_equal(vertices, pool[chosen[np.sort(first)]].astype(np.float64)), threads

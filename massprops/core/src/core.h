@@ -36,6 +36,7 @@ typedef struct {
 } Growable;
 
 void advise_huge(void *data, size_t bytes);      /* huge pages for a large array, where offered */
+void populate_pages(void *data, size_t bytes);    /* its pages faulted in now (for a helper thread) */
 int grow_reserve(Growable *g, size_t bytes);   /* 0, or -1 when memory ran out */
 void release_free_memory(int64_t bytes_worked); /* after a job on this many bytes: free memory back to the system */
 /* grow_reserve with its common case (room enough) inline */

@@ -47,6 +47,22 @@ void advise_huge(void *data, size_t bytes)
 #endif
 }
 
+/* Pages of [data, data + bytes) made present and writable (zeroed by the kernel) without writing
+ * them: another thread may be writing the same block meanwhile (Linux 5.14 and later; elsewhere,
+ * and on older kernels, nothing is done and the writer takes the page faults itself). */
+void populate_pages(void *data, size_t bytes)
+{
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+    const uintptr_t page = 4096;
+    uintptr_t start = ((uintptr_t)data + page - 1) & ~(page - 1), end = ((uintptr_t)data + bytes) & ~(page - 1);
+    if (data && end > start)
+        madvise((void *)start, end - start, MADV_POPULATE_WRITE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
 /* After a large job: the free memory glibc's allocator keeps (in the heaps of the threads that worked,
  * and below its raised trimming threshold, up to 64 MiB of it) is given back to the system, so that it
  * does not stay resident beside what the next stage allocates (issue 24: 39 MiB of the 10M-face peak).

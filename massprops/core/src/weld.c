@@ -234,6 +234,10 @@ typedef struct {
     index_t *out;
     int failed[MAX_RANGES];
     Failure failures[MAX_RANGES];
+    int prefault;                       /* the first range's table is ready, and a helper faults in its pages */
+    int welded;                         /* set once the ranges are welded: the helper stops */
+    char *blocks[3];                    /* what the helper faults in: the table, the faces, the vertices */
+    size_t bytes[3];
 } RangeWork;
 
 static int64_t range_start(const RangeWork *work, int64_t t)
@@ -247,7 +251,8 @@ static void weld_range(void *arg, int64_t t)
     int64_t first = range_start(work, t), last = range_start(work, t + 1), k;
     double *block = malloc((size_t)(last - first < WELD_BLOCK ? last - first + 1 : WELD_BLOCK) * 3 * sizeof(double));
     /* the first range's table ends up holding every vertex: sized for all of them at once */
-    if (!block || welder_init(&work->welders[t], (t == 0 ? work->expected : work->expected / work->ranges) + 16) != 0) {
+    if (!block || (!(t == 0 && work->prefault)
+                   && welder_init(&work->welders[t], (t == 0 ? work->expected : work->expected / work->ranges) + 16) != 0)) {
         free(block);
         work->failed[t] = 1;
         fail(&work->failures[t], ERR_MEMORY, NULL, "out of memory");
@@ -266,6 +271,49 @@ static void weld_range(void *arg, int64_t t)
         }
     }
     free(block);
+}
+
+/* ---- new pages faulted in on the other core ------------------------------------------------- */
+
+/* From this many bytes of faces, the weld's large arrays are new pages at every call (glibc maps
+ * blocks above 32 MiB afresh and unmaps them when freed), and the kernel zeroing them took as
+ * long as the weld itself on the 10M-face torus (issue 24): with a second thread, the helper
+ * below faults them in while the weld runs. */
+#define PREFAULT_FROM ((size_t)1 << 25)
+#define PREFAULT_CHUNK ((size_t)1 << 23)   /* 8 MiB at a time, then a look at whether the weld is done */
+
+static void populate_part(const RangeWork *work, int block, size_t from, size_t to)
+{
+    if (to > work->bytes[block])
+        to = work->bytes[block];
+    if (from < to)
+        populate_pages(work->blocks[block] + from, to - from);
+}
+
+/* The table first (the weld touches it all over from the start), then the faces and the vertices
+ * in step, as the weld writes them; no data is written, so the weld may be writing them meanwhile. */
+static void prefault(RangeWork *work)
+{
+    size_t k;
+    for (k = 0; k < work->bytes[0] && !__atomic_load_n(&work->welded, __ATOMIC_ACQUIRE); k += PREFAULT_CHUNK)
+        populate_part(work, 0, k, k + PREFAULT_CHUNK);
+    for (k = 0; k < work->bytes[1] && !__atomic_load_n(&work->welded, __ATOMIC_ACQUIRE); k += PREFAULT_CHUNK) {
+        double share = (double)work->bytes[2] / (double)work->bytes[1];
+        populate_part(work, 1, k, k + PREFAULT_CHUNK);
+        populate_part(work, 2, (size_t)(share * (double)k), (size_t)(share * (double)(k + PREFAULT_CHUNK)));
+    }
+}
+
+/* Blocks 0 .. ranges - 1 weld their ranges; block `ranges`, when there is one, is the helper. */
+static void weld_or_prefault(void *arg, int64_t t)
+{
+    RangeWork *work = arg;
+    if (t == work->ranges) {
+        prefault(work);
+        return;
+    }
+    weld_range(work, t);
+    __atomic_store_n(&work->welded, 1, __ATOMIC_RELEASE);     /* one range when there is a helper */
 }
 
 /* weld_source, the tables first sized for `expected` distinct points. */
@@ -292,7 +340,26 @@ static int weld_stream(PointSource source, void *context, int64_t count, int64_t
      * jobs), and a reader thread feeding one welder took 20-25% longer as well (issue 24). */
     work.ranges = count < 300000 || threads < 3 ? 1 : threads > MAX_RANGES ? MAX_RANGES : threads;
     work.out = out->faces;
-    parallel_blocks(work.ranges, work.ranges, weld_range, &work);
+    if (work.ranges == 1 && threads >= 2 && (size_t)count * sizeof(index_t) >= PREFAULT_FROM) {
+        Welder *w = &work.welders[0];
+        if (welder_init(w, expected + 16) != 0) {
+            free(out->faces);
+            out->faces = NULL;
+            fail(failure, ERR_MEMORY, NULL, "out of memory");
+            return -1;
+        }
+        work.prefault = 1;
+        work.blocks[0] = (char *)w->slots;
+        work.bytes[0] = (size_t)(w->mask + 1) * sizeof *w->slots;
+        work.blocks[1] = (char *)out->faces;
+        work.bytes[1] = (size_t)count * sizeof(index_t);
+        /* a closed mesh has about a vertex in 6 corners: no more is faulted in than that */
+        work.blocks[2] = w->vertices.data;
+        work.bytes[2] = (size_t)(count / 6 + 16) * 3 * sizeof(double);
+        if (work.bytes[2] > w->vertices.capacity)
+            work.bytes[2] = w->vertices.capacity;
+    }
+    parallel_blocks(work.ranges + work.prefault, work.ranges + work.prefault, weld_or_prefault, &work);
     for (t = 0; t < work.ranges; t++)
         if (work.failed[t] && failure->kind == ERR_NONE)
             *failure = work.failures[t];
