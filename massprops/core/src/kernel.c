@@ -151,28 +151,23 @@ typedef struct {
     double p[3][3][LANES];                   /* [corner][axis][lane] */
 } Corners;
 
-/* det and bound of the lanes' faces taken from corner `first` on ((first, first + 1, first + 2) mod 3):
- * det_and_bound's operations in its order (the same bits), lane by lane so that it vectorises. */
-static inline __attribute__((always_inline)) void rotated(const Corners *restrict c, int first, double *restrict det,
-                                                          double *restrict bound)
+/* det_and_bound (kernel.h) of the lanes' faces taken from corner `first` on ((first, first + 1, first + 2)
+ * mod 3), lane by lane so that it vectorises (inlined: the same bits as the function's). */
+static inline __attribute__((always_inline)) void lanes_det_and_bound(const Corners *restrict c, int first,
+                                                                    double *restrict det, double *restrict bound,
+                                                                    double *restrict area, double *restrict products)
 {
     const int j = (first + 1) % 3, k = (first + 2) % 3;
-    int l;
-    for (l = 0; l < LANES; l++) {
-        double ax = c->p[first][0][l], ay = c->p[first][1][l], az = c->p[first][2][l];
-        double e1x = c->p[j][0][l] - ax, e1y = c->p[j][1][l] - ay, e1z = c->p[j][2][l] - az;
-        double e2x = c->p[k][0][l] - ax, e2y = c->p[k][1][l] - ay, e2z = c->p[k][2][l] - az;
-        double p0 = e1y * e2z, q0 = e1z * e2y, p1 = e1z * e2x, q1 = e1x * e2z, p2 = e1x * e2y, q2 = e1y * e2x;
-        double n0 = p0 - q0, n1 = p1 - q1, n2 = p2 - q2;
-        double s0 = fabs(p0) + fabs(q0), s1 = fabs(p1) + fabs(q1), s2 = fabs(p2) + fabs(q2);
-        det[l] = (ax * n0 + ay * n1) + az * n2;
-        bound[l] = DET_BOUND * ((fabs(ax) * s0 + fabs(ay) * s1) + fabs(az) * s2);
+    for (int l = 0; l < LANES; l++) {
+        const double a[3] = {c->p[first][0][l], c->p[first][1][l], c->p[first][2][l]};
+        const double b[3] = {c->p[j][0][l], c->p[j][1][l], c->p[j][2][l]};
+        const double d[3] = {c->p[k][0][l], c->p[k][1][l], c->p[k][2][l]};
+        double x, e, n, s;
+        det_and_bound(a, b, d, &x, &e, &n, &s);
+        det[l] = x, bound[l] = e, area[l] = n, products[l] = s;
     }
 }
 
-/* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
- * least bound), and double-double or exact arithmetic if that is still hard.  The other two
- * rotations are found for all lanes at once (hard faces come in runs: slivers, flat parts). */
 /* det_double_double (kernel_dd.c) of every lane's face, lane by lane so that it vectorises (det_dd
  * inlined: the same bits as the function's). */
 static inline __attribute__((always_inline)) void lanes_det_double_double(const Corners *restrict c,
@@ -190,16 +185,17 @@ static inline __attribute__((always_inline)) void lanes_det_double_double(const 
 }
 
 /* The hard faces among `count` lanes: each takes the best of its three rotations (the first with the
- * least bound), and double-double or exact arithmetic if that is still hard (refine's steps, the
- * double-double determinant of all lanes at once when any needs it).  The other two rotations are
+ * least bound), and double-double or exact arithmetic if that is still hard (the double-double
+ * determinant of all lanes at once when any needs it).  The other two rotations are
  * found for all lanes at once (hard faces come in runs: slivers, flat parts). */
 VECTOR_CLONES static __attribute__((noinline)) void hard_faces(const Corners *restrict c, int count, double *restrict det,
                                                 double *restrict bound, BlockResult *r)
 {
     double det1[LANES], bound1[LANES], det2[LANES], bound2[LANES], hi[LANES], lo[LANES], permanent[LANES];
+    double area[LANES], products[LANES];       /* not used here */
     int l, k, i, still = 0, hard[LANES] = {0};
-    rotated(c, 1, det1, bound1);
-    rotated(c, 2, det2, bound2);
+    lanes_det_and_bound(c, 1, det1, bound1, area, products);
+    lanes_det_and_bound(c, 2, det2, bound2, area, products);
     for (l = 0; l < count; l++)
         if (bound[l] > REFINE_ABOVE * fabs(det[l])) {
             if (bound1[l] < bound[l]) {
@@ -260,19 +256,7 @@ static inline __attribute__((always_inline)) int lane_batch(const Work *w, int64
             for (i = 0; i < 3; i++)
                 c.p[k][i][l] = l < count ? w->scaled[3 * v[k] + i] : 0.0;
     }
-    /* det_and_bound, lane by lane on the structure of arrays (so that it vectorises) */
-    for (l = 0; l < LANES; l++) {
-        double ax = c.p[0][0][l], ay = c.p[0][1][l], az = c.p[0][2][l];
-        double e1x = c.p[1][0][l] - ax, e1y = c.p[1][1][l] - ay, e1z = c.p[1][2][l] - az;
-        double e2x = c.p[2][0][l] - ax, e2y = c.p[2][1][l] - ay, e2z = c.p[2][2][l] - az;
-        double p0 = e1y * e2z, q0 = e1z * e2y, p1 = e1z * e2x, q1 = e1x * e2z, p2 = e1x * e2y, q2 = e1y * e2x;
-        double n0 = p0 - q0, n1 = p1 - q1, n2 = p2 - q2;
-        double s0 = fabs(p0) + fabs(q0), s1 = fabs(p1) + fabs(q1), s2 = fabs(p2) + fabs(q2);
-        det[l] = (ax * n0 + ay * n1) + az * n2;
-        bound[l] = DET_BOUND * ((fabs(ax) * s0 + fabs(ay) * s1) + fabs(az) * s2);
-        area[l] = sqrt((n0 * n0 + n1 * n1) + n2 * n2);
-        products[l] = (s0 + s1) + s2;
-    }
+    lanes_det_and_bound(&c, 0, det, bound, area, products);
     for (l = 0; l < LANES; l++)
         hard |= bound[l] > REFINE_ABOVE * fabs(det[l]);
     if (in->area_measure) {
