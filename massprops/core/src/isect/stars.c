@@ -526,6 +526,19 @@ static void merge_sign(int8_t *sign, int64_t shell, int8_t seen)
     }
 }
 
+/* How a line meets a face, from the orientations of the line with the face's three edges: 2 all of one
+ * strict sign (it crosses the face's interior), 1 some zero and none of the other sign (it meets the
+ * face's boundary), 0 otherwise (it misses the face; all zero: parallel to its plane, which does not
+ * hold the line's point).  *positive: the sign, when it meets the face. */
+static inline int line_meets(int s1, int s2, int s3, int *positive)
+{
+    int above = (s1 > 0) + (s2 > 0) + (s3 > 0), below = (s1 < 0) + (s2 < 0) + (s3 < 0);
+    *positive = above > 0;
+    if ((above && below) || (!above && !below))
+        return 0;
+    return above + below == 3 ? 2 : 1;
+}
+
 /* For the degree certificate: where the line through c along each axis k meets face (a, b, e),
  * added to crossed / touched (see ShellWork).  The line meets the face's plane at c + t e_k with
  * t = orient3d(a, b, e, c) / N_k, N = (b - a) x (e - a), whose k-th component is porient(k, a, b, e)
@@ -546,14 +559,11 @@ static inline void ray_face(P a, P b, P e, P c, int64_t crossed[3][2], uint8_t t
         int u = k == 0 ? 1 : 0, v = k == 2 ? 1 : 2;
         if (!(within >> u & 1) || !(within >> v & 1))
             continue;
-        int s1 = porient(k, a, b, c), s2 = porient(k, b, e, c), s3 = porient(k, e, a, c);
-        int positive = (s1 > 0) + (s2 > 0) + (s3 > 0), negative = (s1 < 0) + (s2 < 0) + (s3 < 0);
-        if ((positive && negative) || (!positive && !negative))
-            continue;
+        int positive, meets = line_meets(porient(k, a, b, c), porient(k, b, e, c), porient(k, e, a, c), &positive);
         int normal = (positive ? 1 : -1) * (k == 1 ? -1 : 1);     /* the sign of N_k */
-        if (positive + negative == 3)
+        if (meets == 2)
             crossed[k][normal > 0 ? 0 : 1]++;
-        else
+        else if (meets == 1)
             touched[k][normal > 0 ? 0 : 1] = 1;
     }
 }
@@ -650,13 +660,10 @@ static void line_block(void *ctx, int worker, int64_t block)
         }
         if (apart)
             continue;
-        int s1 = orient3d(q, a, b, c), s2 = orient3d(q, b, e, c), s3 = orient3d(q, e, a, c);
-        int positive = (s1 > 0) + (s2 > 0) + (s3 > 0), negative = (s1 < 0) + (s2 < 0) + (s3 < 0);
-        if ((positive && negative) || (!positive && !negative))
-            continue;
-        if (positive + negative == 3)
+        int positive, meets = line_meets(orient3d(q, a, b, c), orient3d(q, b, e, c), orient3d(q, e, a, c), &positive);
+        if (meets == 2)
             crossed[positive ? 0 : 1]++;
-        else
+        else if (meets == 1)
             touched[positive ? 0 : 1] = 1;
     }
     for (int j = 0; j < 2; j++) {
