@@ -54,6 +54,18 @@ typedef struct {
                                * flag NULL), and every vertex a face uses has its faces in one cycle */
 } Stars;
 
+/* The vertex after (next_corner) and before (previous_corner) corner c of face t, in its winding;
+ * for a ring entry r, face r >> 2 and corner r & 3. */
+static inline int64_t next_corner(const int64_t *F, int64_t t, int c)
+{
+    return F[3 * t + (c == 2 ? 0 : c + 1)];
+}
+
+static inline int64_t previous_corner(const int64_t *F, int64_t t, int c)
+{
+    return F[3 * t + (c == 0 ? 2 : c - 1)];
+}
+
 /* Certificates for the shells flagged in `wanted` (per shell) and their vertices; 0, or -1 when
  * memory ran out (then nothing is certified: every pair is tested).  Faces need
  * 0 <= F < n and m < 2**30. */

@@ -492,8 +492,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             int first_above = 0, last_above = 0;
             for (int64_t j = 0; j < degree; j++) {
                 uint32_t r = st->ring[b + j];
-                int corner = r & 3;
-                int64_t x = F[3 * (int64_t)(r >> 2) + (corner == 2 ? 0 : corner + 1)];
+                int64_t x = next_corner(F, r >> 2, r & 3);
                 int above = V[3 * x + y] > pv[y];
                 if (j == 0)
                     first_above = above;
@@ -518,8 +517,7 @@ static int patch(const Patches *pa, Scratch *sc, const uint32_t *list, int64_t k
             last_in = in;
         }
         if (runs == 1 && n_boundary < k + 2) {
-            int corner = first & 3;
-            int64_t edge = F[3 * (int64_t)(first >> 2) + (corner == 2 ? 0 : corner + 1)];
+            int64_t edge = next_corner(F, first >> 2, first & 3);
             boundary_add(sc, v, edge, n_boundary++);
             start = v;
         } else

@@ -183,7 +183,7 @@ static void file_range(void *ctx, int64_t range)
             int64_t at = next[v]++;
             s->ring[at] = (uint32_t)(t << 2 | c);
             if (s->xy)
-                s->xy[at] = (uint64_t)F[3 * t + (c == 2 ? 0 : c + 1)] | (uint64_t)F[3 * t + (c == 0 ? 2 : c - 1)] << 32;
+                s->xy[at] = (uint64_t)next_corner(F, t, c) | (uint64_t)previous_corner(F, t, c) << 32;
         }
 }
 
@@ -274,8 +274,8 @@ static int order_cycle(Stars *s, int64_t v, Scratch *sc, int prefetch)
         uint32_t r = s->ring[b + i];
         int64_t f = r >> 2;
         int c = r & 3;
-        sc->x[i] = F[3 * f + (c == 2 ? 0 : c + 1)];
-        sc->y[i] = F[3 * f + (c == 0 ? 2 : c - 1)];
+        sc->x[i] = next_corner(F, f, c);
+        sc->y[i] = previous_corner(F, f, c);
     }
     /* the link's coordinates, when a certificate reads them once the cycle is found (around a
      * vertex of a subdivided mesh they lie anywhere in memory) */
@@ -738,8 +738,7 @@ static void vertex_block(void *ctx, int worker, int64_t block)
                 continue;
             for (int64_t i = 0; i < k; i++) {
                 uint32_t r = s->ring[s->begin[v] + i];
-                int c = r & 3;
-                sc->link[i] = s->F[3 * (r >> 2) + (c == 2 ? 0 : c + 1)];
+                sc->link[i] = next_corner(s->F, r >> 2, r & 3);
             }
             if (star_embedded(s->V, pv, sc->link, k, sc->above)) {
                 s->flag[v] |= STAR_EMBEDDED;
@@ -941,8 +940,7 @@ static void corners_block(void *ctx, int worker, int64_t block)
             int64_t k = star_degree(s, v);
             for (int64_t i = 0; i < k; i++) {
                 uint32_t r = s->ring[s->begin[v] + i];
-                int corner = r & 3;
-                sc->link[i] = s->F[3 * (r >> 2) + (corner == 2 ? 0 : corner + 1)];
+                sc->link[i] = next_corner(s->F, r >> 2, r & 3);
             }
             if (star_embedded(s->V, s->V + 3 * v, sc->link, k, sc->above)) {
                 __atomic_fetch_or(&s->flag[v], STAR_EMBEDDED, __ATOMIC_RELAXED);
