@@ -649,3 +649,22 @@ def test_a_large_shell_meets_itself_exactly_where_its_pushed_vertex_makes_faces_
     for threads in (1, 2):
         reported, pinched = geometry.crossing_pairs(np.array(faces), threads=threads)
         assert {tuple(p) for p in reported.tolist()} == expected and pinched == 0
+
+
+@pytest.mark.parametrize("spike", [300, 660])
+def test_a_large_shell_in_any_face_order_meets_itself_exactly_where_its_pushed_vertex_makes_faces_cross(spike):
+    """A finely cut box of 307,200 faces in a random order (the coarse grid's filing then cannot
+    reuse what counting found for most faces, which are filed from their corners again), the middle
+    of its bottom pushed up short of the top (300) or through it (660): the pairs are those of the
+    pushed vertex's faces tested exactly pair by pair, on one thread or two."""
+    rng = np.random.default_rng(11)
+    points, faces = _finely_cut_box(160, rng, spike)
+    faces = [faces[t] for t in rng.permutation(len(faces))]
+    assert len(faces) == 307200
+    pushed = next(i for i, p in enumerate(points) if p[0] == p[1] == 320 and p[2] == spike)
+    expected = _pairs_near(points, faces, [t for t, f in enumerate(faces) if pushed in f])
+    assert bool(expected) == (spike == 660)
+    geometry = ExactGeometry(np.array(points, dtype=float))
+    for threads in (1, 2):
+        reported, pinched = geometry.crossing_pairs(np.array(faces), threads=threads)
+        assert {tuple(p) for p in reported.tolist()} == expected and pinched == 0

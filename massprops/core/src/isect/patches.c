@@ -638,17 +638,28 @@ static void patch_block(void *ctx, int worker, int64_t block)
 /* Every face is at one level, so the cells can be an array (when there are not many more cells
  * than faces) and the faces filed into them by counting: per block of faces, per cell, instead
  * of keys sorted.  Faces keep their input index, ascending within a cell as in the sorted grid
- * (grid.c), the fallback.  About 5 bytes a face (a 32-bit index per entry; each face's cell while
- * filing, below HOME_MOST faces) instead of the sorted grid's 40 (keys, copies, cells and the
- * sort's scratch).  The grid's origin is the low corner of a box holding every face taken: with
- * every face taken, the box of the vertices some face uses (the stars' incidences say which: a
- * pass over the vertices, not over the faces' scattered corners), or else a pass of its own. */
+ * (grid.c), the fallback.  About 4 bytes a face (a 32-bit index per entry) instead of the sorted
+ * grid's 40 (keys, copies, cells and the sort's scratch).  The grid's origin is the low corner of
+ * a box holding every face taken: with every face taken, the box of the vertices some face uses
+ * (the stars' incidences say which: a pass over the vertices, not over the faces' scattered
+ * corners), or else a pass of its own. */
 
+/* A face's home: the cell of its box's low corner << 3, and per bit of home & 7 the next cell
+ * along x (1), y (2), z (4) it reaches too (enter); or one of these two. */
 enum { HOME_NONE = 0xFFFFFFFF, HOME_SPLIT = 0xFFFFFFFE };
-/* Above this many faces no cell is kept per face while filing (4 bytes a face, on the 10M torus
- * alive at the search's peak beside the filed faces and the stars): the filing pass finds each
- * face's cells again. */
-#define HOME_MOST ((int64_t)1 << 22)
+/* Homes are kept while counting as runs of consecutive faces with the same home, so that filing
+ * need not find each face's cells again from its corners (on the 10M torus, 3.4 ns/triangle of
+ * scattered vertex reads: its 10M faces are 172k runs).  Per block, room for its faces' runs up to
+ * RUNS_WHOLE faces, and for a sixteenth of them beyond: a block whose faces are in no order
+ * (runs of one face) finds the cells of the faces after its runs again, as without them. */
+#define RUNS_WHOLE 65536
+#define RUNS_SHARE 16
+/* Homes need 8 * cell + 7 < HOME_SPLIT: no runs with more cells. */
+#define RUNS_MOST_CELLS ((int64_t)1 << 28)
+
+typedef struct {
+    uint32_t home, length;
+} Run;
 
 typedef struct {
     const double *V;
@@ -658,8 +669,9 @@ typedef struct {
     int64_t n;                /* vertices */
     const Grid *g;
     int64_t m, per_block, n_blocks;
-    uint32_t *home;           /* per face (or NULL): HOME_NONE (not taken), its cells (enter), or
-                               * HOME_SPLIT (cells_block) */
+    Run *runs;                /* per block, room for run_room: its first faces' homes, in order */
+    int64_t run_room;
+    int64_t *n_runs;          /* per block: runs kept; they cover its first faces, the rest are found again */
     double (*box)[6];         /* per block: low corner, high corner of its valid faces */
     int64_t *count;           /* per block: valid faces (valid_block), then entries */
     int64_t *valid;           /* per block: valid faces (counted with the entries) */
@@ -718,9 +730,8 @@ static void used_block(void *ctx, int64_t block)
     memcpy(co->box[block], box, sizeof(box));
 }
 
-/* Face t entered in the cells of `home` (cells_block): the cell of its box's low corner and, per
- * bit of home & 7, the next one along x (1), y (2), z (4); counted (fill 0) or filed (fill 1).
- * (With home, at most HOME_MOST faces and so fewer than 2^23 cells: 8 * cell + 7 < HOME_SPLIT.) */
+/* Face t entered in the cells of `home` (not HOME_NONE or HOME_SPLIT): counted (fill 0) or filed
+ * (fill 1). */
 static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, uint32_t t)
 {
     int64_t at[8], n = 0, cell = home >> 3, row = co->dims[0], plane = co->dims[0] * co->dims[1];
@@ -745,72 +756,77 @@ static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, ui
     }
 }
 
-/* The block's entries: counted per cell (fill 0), or filed (fill 1).  A face's cells are kept in
- * home when it reaches at most the next cell along each axis (most faces: a coarse cell is at
- * least twice most faces' extent); the others' are found again. */
+/* Face t's cells found from its corners, counted (fill 0) or filed (fill 1) and added to *entries:
+ * its home (HOME_NONE when it is not taken, HOME_SPLIT when it reaches further than the next cell
+ * along an axis: a coarse cell is at least twice most faces' extent). */
+static uint32_t cells_of_face(Coarse *co, uint32_t *slot, int fill, int64_t t, int64_t *entries)
+{
+    const Grid *g = co->g;
+    const int64_t *c = co->F + 3 * t;
+    P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
+    if (!taken_face(co, t, a, b, e))
+        return HOME_NONE;
+    int64_t c0[3], c1[3];
+    for (int k = 0; k < 3; k++) {
+        c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
+        c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> co->top;
+    }
+    int64_t low = (c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0];
+    if (c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1 && co->n_cells < RUNS_MOST_CELLS) {
+        uint32_t home = (uint32_t)(low << 3 | (c1[0] - c0[0]) | (c1[1] - c0[1]) << 1 | (c1[2] - c0[2]) << 2);
+        enter(co, slot, home, fill, (uint32_t)t);
+        *entries += (1 + (home & 1)) * (1 + (home >> 1 & 1)) * (1 + (home >> 2 & 1));
+        return home;
+    }
+    for (int64_t z = c0[2]; z <= c1[2]; z++)
+        for (int64_t y = c0[1]; y <= c1[1]; y++)
+            for (int64_t x = c0[0]; x <= c1[0]; x++) {
+                int64_t cell = (z * co->dims[1] + y) * co->dims[0] + x;
+                if (fill)
+                    co->face[slot[cell]++] = (uint32_t)t;
+                else
+                    slot[cell]++;
+                (*entries)++;
+            }
+    return HOME_SPLIT;
+}
+
+/* The block's entries: counted per cell, its faces' homes kept as runs (fill 0); or filed, from
+ * the runs and then from the corners of the faces after them (fill 1). */
 static void cells_block(Coarse *co, int64_t block, int fill)
 {
-    int64_t t0 = block * co->per_block, t1 = t0 + co->per_block < co->m ? t0 + co->per_block : co->m, n = 0, valid = 0;
+    int64_t t = block * co->per_block, t1 = t + co->per_block < co->m ? t + co->per_block : co->m;
+    int64_t entries = 0, valid = 0, n_runs = 0;
     uint32_t *slot = co->slot + block * co->n_cells;
-    const Grid *g = co->g;
-    for (int64_t t = t0; t < t1; t++) {
-        if (fill && co->home) {
-            uint32_t home = co->home[t];
-            if (home == HOME_NONE)
-                continue;
-            if (!(home & 7))
-                co->face[slot[home >> 3]++] = (uint32_t)t;
-            else if (home != HOME_SPLIT)
-                enter(co, slot, home, 1, (uint32_t)t);
-            if (home != HOME_SPLIT)
-                continue;
-        }
-        const int64_t *c = co->F + 3 * t;
-        P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        if (!(fill && co->home) && !taken_face(co, t, a, b, e)) {
-            if (co->home)
-                co->home[t] = HOME_NONE;
-            continue;
-        }
-        valid++;
-        int64_t c0[3], c1[3];
-        for (int k = 0; k < 3; k++) {
-            c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
-            c1[k] = grid_cell0(g, k, dmax(a[k], dmax(b[k], e[k]))) >> co->top;
-        }
-        int64_t low = (c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0];
-        if (!fill && c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]) {
-            /* one cell (most faces when the cells are coarse) */
-            slot[low]++;
-            if (co->home)
-                co->home[t] = (uint32_t)(low << 3);
-            n++;
-            continue;
-        }
-        if (!fill && co->home && c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1) {
-            uint32_t home = (uint32_t)(low << 3 | (c1[0] - c0[0]) | (c1[1] - c0[1]) << 1 | (c1[2] - c0[2]) << 2);
-            co->home[t] = home;
-            enter(co, slot, home, 0, (uint32_t)t);
-            n += (1 + (home & 1)) * (1 + (home >> 1 & 1)) * (1 + (home >> 2 & 1));
-            continue;
-        }
-        for (int64_t z = c0[2]; z <= c1[2]; z++)
-            for (int64_t y = c0[1]; y <= c1[1]; y++)
-                for (int64_t x = c0[0]; x <= c1[0]; x++) {
-                    int64_t cell = (z * co->dims[1] + y) * co->dims[0] + x;
-                    if (fill)
-                        co->face[slot[cell]++] = (uint32_t)t;
-                    else
-                        slot[cell]++;
-                    n++;
-                }
-        if (!fill && co->home)
-            co->home[t] = HOME_SPLIT;
+    Run *run = co->runs + block * co->run_room;
+    if (fill) {
+        for (int64_t r = 0; r < co->n_runs[block]; r++)
+            for (uint32_t i = 0; i < run[r].length; i++, t++) {
+                uint32_t home = run[r].home;
+                if (home == HOME_SPLIT)
+                    cells_of_face(co, slot, 1, t, &entries);
+                else if (!(home & 7))
+                    co->face[slot[home >> 3]++] = (uint32_t)t;
+                else if (home != HOME_NONE)
+                    enter(co, slot, home, 1, (uint32_t)t);
+            }
+        for (; t < t1; t++)
+            cells_of_face(co, slot, 1, t, &entries);
+        return;
     }
-    if (!fill) {
-        co->count[block] = n;
-        co->valid[block] = valid;
+    for (int keeping = co->run_room > 0; t < t1; t++) {
+        uint32_t home = cells_of_face(co, slot, 0, t, &entries);
+        valid += home != HOME_NONE;
+        if (keeping && n_runs && run[n_runs - 1].home == home && run[n_runs - 1].length < UINT32_MAX)
+            run[n_runs - 1].length++;
+        else if (keeping && n_runs < co->run_room)
+            run[n_runs++] = (Run){home, 1};
+        else
+            keeping = 0;
     }
+    co->count[block] = entries;
+    co->valid[block] = valid;
+    co->n_runs[block] = n_runs;
 }
 
 static void count_block(void *ctx, int64_t block) { cells_block(ctx, block, 0); }
@@ -836,13 +852,15 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     int64_t most = (m + 8191) / 8192, n_blocks = 4 * (int64_t)(threads < 1 ? 1 : threads);
     co->n_blocks = n_blocks = n_blocks < most ? n_blocks : (most ? most : 1);
     co->per_block = (m + n_blocks - 1) / n_blocks;
-    co->home = m <= HOME_MOST ? isect_alloc(sizeof(uint32_t) * (m ? m : 1), 0) : NULL;
+    co->run_room = co->per_block < RUNS_WHOLE ? co->per_block : RUNS_WHOLE + co->per_block / RUNS_SHARE;
+    co->runs = malloc(sizeof(Run) * n_blocks * co->run_room);
+    co->n_runs = malloc(sizeof(int64_t) * n_blocks);
     co->box = malloc(sizeof(double[6]) * n_blocks);
     co->count = malloc(sizeof(int64_t) * n_blocks);
     co->valid = malloc(sizeof(int64_t) * n_blocks);
     double *extent = malloc(sizeof(double) * GRID_SAMPLES);
     int status = -1;
-    if ((!co->home && m <= HOME_MOST) || !co->box || !co->count || !co->valid || !extent)
+    if (!co->runs || !co->n_runs || !co->box || !co->count || !co->valid || !extent)
         goto done;
     double glo[3], ghi[3];
     int64_t n = m;            /* faces taken: at most m until counted */
@@ -936,8 +954,9 @@ static int coarse_build(Coarse *co, Grid *g, const double *V, const int64_t *F, 
     g->n_entries = entries;
     status = 0;
 done:
-    free(co->home), free(co->box), free(co->count), free(co->valid), free(extent);
-    co->home = NULL;
+    free(co->runs), free(co->n_runs), free(co->box), free(co->count), free(co->valid), free(extent);
+    co->runs = NULL;
+    co->n_runs = NULL;
     if (status != 0) {
         free(co->slot);
         co->slot = NULL;
