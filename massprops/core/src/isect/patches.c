@@ -684,9 +684,8 @@ typedef struct {
 /* Faces of zero area are filed too: (a) fails the cells that hold one (and its neighbours are
  * searched; the search leaves it out).  Testing every face's area here cost more than those
  * cells, which are rare. */
-static inline int taken_face(const Coarse *co, int64_t t, P a, P b, P e)
+static inline int taken_face(const Coarse *co, int64_t t)
 {
-    (void)a, (void)b, (void)e;
     return !co->take || co->take[t];
 }
 
@@ -697,10 +696,10 @@ static void valid_block(void *ctx, int64_t block)
     /* the box in locals, stored once: the blocks' boxes share cache lines */
     double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int64_t t = t0; t < t1; t++) {
+        if (!taken_face(co, t))
+            continue;
         const int64_t *c = co->F + 3 * t;
         P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-        if (!taken_face(co, t, a, b, e))
-            continue;
         for (int k = 0; k < 3; k++) {
             box[k] = dmin(box[k], dmin(a[k], dmin(b[k], e[k])));
             box[3 + k] = dmax(box[3 + k], dmax(a[k], dmax(b[k], e[k])));
@@ -731,8 +730,8 @@ static void used_block(void *ctx, int64_t block)
 }
 
 /* Face t entered in the cells of `home` (not HOME_NONE or HOME_SPLIT): counted (fill 0) or filed
- * (fill 1). */
-static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, uint32_t t)
+ * (fill 1); how many cells. */
+static inline int64_t enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, uint32_t t)
 {
     int64_t at[8], n = 0, cell = home >> 3, row = co->dims[0], plane = co->dims[0] * co->dims[1];
     at[n++] = cell;
@@ -754,6 +753,7 @@ static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, ui
         else
             slot[at[i]]++;
     }
+    return n;
 }
 
 /* Face t's cells found from its corners, counted (fill 0) or filed (fill 1) and added to *entries:
@@ -761,11 +761,11 @@ static inline void enter(Coarse *co, uint32_t *slot, uint32_t home, int fill, ui
  * along an axis: a coarse cell is at least twice most faces' extent). */
 static uint32_t cells_of_face(Coarse *co, uint32_t *slot, int fill, int64_t t, int64_t *entries)
 {
+    if (!taken_face(co, t))
+        return HOME_NONE;
     const Grid *g = co->g;
     const int64_t *c = co->F + 3 * t;
     P a = co->V + 3 * c[0], b = co->V + 3 * c[1], e = co->V + 3 * c[2];
-    if (!taken_face(co, t, a, b, e))
-        return HOME_NONE;
     int64_t c0[3], c1[3];
     for (int k = 0; k < 3; k++) {
         c0[k] = grid_cell0(g, k, dmin(a[k], dmin(b[k], e[k]))) >> co->top;
@@ -774,8 +774,7 @@ static uint32_t cells_of_face(Coarse *co, uint32_t *slot, int fill, int64_t t, i
     int64_t low = (c0[2] * co->dims[1] + c0[1]) * co->dims[0] + c0[0];
     if (c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1 && co->n_cells < RUNS_MOST_CELLS) {
         uint32_t home = (uint32_t)(low << 3 | (c1[0] - c0[0]) | (c1[1] - c0[1]) << 1 | (c1[2] - c0[2]) << 2);
-        enter(co, slot, home, fill, (uint32_t)t);
-        *entries += (1 + (home & 1)) * (1 + (home >> 1 & 1)) * (1 + (home >> 2 & 1));
+        *entries += enter(co, slot, home, fill, (uint32_t)t);
         return home;
     }
     for (int64_t z = c0[2]; z <= c1[2]; z++)
