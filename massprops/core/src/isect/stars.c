@@ -379,6 +379,7 @@ static int star_along_direction(const double *V, P v, const int64_t *link, int64
 
 /* The star certificate for v (manifold, link in sc->link), first along an axis, then along
  * the sum of its faces' unit normals. */
+
 static int star_embedded(const double *V, P v, const int64_t *link, int64_t k, uint8_t *above)
 {
     double area[3] = {0.0, 0.0, 0.0}, unit[3] = {0.0, 0.0, 0.0}, reach = 0.0;
@@ -404,6 +405,17 @@ static int star_embedded(const double *V, P v, const int64_t *link, int64_t k, u
     for (int j = 0; j < 3; j++)
         q[j] = v[j] + unit[j] * (reach / largest);
     return star_along_direction(V, v, link, k, q, above);
+}
+
+/* star_embedded for vertex v of one cycle, its link taken from its ring in order. */
+static int vertex_star_embedded(const Stars *s, int64_t v, Scratch *sc)
+{
+    int64_t k = star_degree(s, v);
+    for (int64_t i = 0; i < k; i++) {
+        uint32_t r = s->ring[s->begin[v] + i];
+        sc->link[i] = next_corner(s->F, r >> 2, r & 3);
+    }
+    return star_embedded(s->V, s->V + 3 * v, sc->link, k, sc->above);
 }
 
 /* ---- shells -------------------------------------------------------------------------------- */
@@ -612,17 +624,30 @@ static void sign_block(void *ctx, int worker, int64_t block)
         }
 }
 
+/* The two rays of one line from c (along +d, then -d), counted by the sign of the normal's component
+ * along d (0: positive, 1: negative): the first that no face meets on its boundary crosses exactly one
+ * face (1) or not (0); -1 when a face meets both on their boundary.  Ahead of c along direction * d,
+ * a face's normal component has the sign of orient3d * direction. */
+static int rays_decide(const int64_t crossed[2], const uint8_t touched[2], int sign)
+{
+    for (int direction = 1; direction >= -1; direction -= 2) {
+        int j = sign * direction > 0 ? 0 : 1;
+        if (!touched[j])
+            return crossed[j] == 1;
+    }
+    return -1;
+}
+
 /* The degree certificate's decision for the one shell, of sign `sign` (see the file's comment): the
  * first of the six rays (+x, -x, +y, -y, +z, -z from c) that no face meets on its boundary crosses
  * exactly one face; -1 when a face meets each of them on its boundary. */
 static int degree_certified(const ShellWork *w, int sign)
 {
-    for (int k = 0; k < 3; k++)
-        for (int direction = 1; direction >= -1; direction -= 2) {
-            int j = sign * direction > 0 ? 0 : 1;      /* ahead of c: N_k of the sign of orient3d * direction */
-            if (!w->touched[k][j])
-                return w->crossed[k][j] == 1;
-        }
+    for (int k = 0; k < 3; k++) {
+        int certified = rays_decide(w->crossed[k], w->touched[k], sign);
+        if (certified >= 0)
+            return certified;
+    }
     return -1;
 }
 
@@ -689,12 +714,7 @@ static int degree_certified_any(ShellWork *w, int sign, int workers)
     if (!(w->towards[0] - c[0] > 0.5))
         return 0;
     parallel_workers(workers, (w->s->m + FACE_BLOCK - 1) / FACE_BLOCK, line_block, w);
-    for (int direction = 1; direction >= -1; direction -= 2) {
-        int j = sign * direction > 0 ? 0 : 1;          /* ahead of c along direction * d: d . N of that sign */
-        if (!w->line_touched[j])
-            return w->line_crossed[j] == 1;
-    }
-    return 0;
+    return rays_decide(w->line_crossed, w->line_touched, sign) == 1;
 }
 
 /* The shell of v's star, or -1 when its faces lie in several shells. */
@@ -736,11 +756,7 @@ static void vertex_block(void *ctx, int worker, int64_t block)
             int64_t sh = star_shell(s, w->shell, v);
             if (sh < 0 || !w->wanted[sh] || s->shell_embedded[sh] || w->sign[sh] == SIGN_MIXED)
                 continue;
-            for (int64_t i = 0; i < k; i++) {
-                uint32_t r = s->ring[s->begin[v] + i];
-                sc->link[i] = next_corner(s->F, r >> 2, r & 3);
-            }
-            if (star_embedded(s->V, pv, sc->link, k, sc->above)) {
+            if (vertex_star_embedded(s, v, sc)) {
                 s->flag[v] |= STAR_EMBEDDED;
                 certified++;
             }
@@ -937,12 +953,7 @@ static void corners_block(void *ctx, int worker, int64_t block)
             int64_t sh = star_shell(s, w->shell, v);
             if (sh < 0 || s->shell_embedded[sh])
                 continue;
-            int64_t k = star_degree(s, v);
-            for (int64_t i = 0; i < k; i++) {
-                uint32_t r = s->ring[s->begin[v] + i];
-                sc->link[i] = next_corner(s->F, r >> 2, r & 3);
-            }
-            if (star_embedded(s->V, s->V + 3 * v, sc->link, k, sc->above)) {
+            if (vertex_star_embedded(s, v, sc)) {
                 __atomic_fetch_or(&s->flag[v], STAR_EMBEDDED, __ATOMIC_RELAXED);
                 certified++;
             }
