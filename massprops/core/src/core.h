@@ -43,6 +43,10 @@ void release_free_memory(int64_t bytes_worked); /* after a job on this many byte
 static inline int reserve(Growable *g, size_t bytes) { return g->size + bytes <= g->capacity ? 0 : grow_reserve(g, bytes); }
 void grow_free(Growable *g);
 
+#define MAX_THREADS 64
+/* A thread count asked for, within 1 .. MAX_THREADS (what the loops below run at most). */
+static inline int thread_limit(int threads) { return threads < 1 ? 1 : threads > MAX_THREADS ? MAX_THREADS : threads; }
+
 /* Parallel loop over numbered blocks: fn(ctx, block) for block in [0, blocks), on up to
  * `threads` threads (the caller's thread is one of them).  Blocks are handed out in order
  * from a shared counter; results must be stored per block so they do not depend on which

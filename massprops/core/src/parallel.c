@@ -32,8 +32,6 @@ static void *run_blocks(void *arg)
     }
 }
 
-#define MAX_THREADS 64
-
 static void run_loop(int threads, Loop *loop)
 {
     pthread_t ids[MAX_THREADS];

@@ -107,8 +107,6 @@ static const char *bad_shells(const int64_t *shell, Py_ssize_t m, Py_ssize_t n_s
     return NULL;
 }
 
-#define MAX_THREADS 64
-
 static PyObject *py_pairs(PyObject *self, PyObject *args)
 {
     PyObject *vo, *fo, *so, *ao;
@@ -121,7 +119,7 @@ static PyObject *py_pairs(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "shell count or example count out of range");
         return NULL;
     }
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    threads = thread_limit(threads);
     /* shell None: every face of shell 0 (n_shells 1); active None: every face */
     Py_buffer vb, fb, sb, ab;
     if (get_buffer(vo, &vb, 8, 0, "vertices") < 0)
@@ -203,7 +201,7 @@ static PyObject *py_certificates(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "shell count out of range");
         return NULL;
     }
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    threads = thread_limit(threads);
     Py_buffer vb, fb, sb;
     if (get_three(vo, fo, so, &vb, &fb, &sb, 8, 0, "shell") < 0)
         return NULL;
@@ -322,7 +320,7 @@ static PyObject *py_arrange(PyObject *self, PyObject *args)
     int threads;
     if (!PyArg_ParseTuple(args, "OOOi", &vo, &fo, &po, &threads))
         return NULL;
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    threads = thread_limit(threads);
     Py_buffer vb, fb, pb;
     if (get_three(vo, fo, po, &vb, &fb, &pb, 16, 0, "pairs") < 0)
         return NULL;
@@ -372,7 +370,7 @@ static PyObject *py_labels(PyObject *self, PyObject *args)
     int threads;
     if (!PyArg_ParseTuple(args, "OOOOOOOi", &vo, &fo, &wo, &qo, &xo, &bo, &lo, &threads))
         return NULL;
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    threads = thread_limit(threads);
     Py_buffer vb, fb, wb, qb, xb, bb, lb;
     if (get_three(vo, fo, wo, &vb, &fb, &wb, 8, 0, "weights") < 0)
         return NULL;
@@ -634,7 +632,7 @@ static PyObject *py_kept_corners(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "OOOOOOOOi", o, o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, &threads)
         || get_many(o, b, (Py_ssize_t[]){24, 24, 24, 24, 24, 56, 24, 24}, (int[]){0, 0, 1, 0, 0, 0, 0, 0}, 8) < 0)
         return NULL;
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
+    threads = thread_limit(threads);
     Py_ssize_t n = b[0].len / 24, m = b[1].len / 24, k = b[2].len / 24, qc = b[3].len / 24, qe = b[6].len / 24;
     const int64_t *T = b[2].buf;
     const char *bad = b[4].len != b[3].len || b[5].len / 56 != qc ? "one rounding and one definition per point"

@@ -21,8 +21,6 @@
 
 #include "isect.h"
 
-#define MAX_THREADS 64   /* as module.c and ../parallel.c */
-
 PyObject *py_resolve(PyObject *self, PyObject *args);
 
 static PyObject *bytes_of(const void *data, size_t size)
@@ -234,8 +232,8 @@ PyObject *py_resolve(PyObject *self, PyObject *args)
             return NULL;
         }
     }
-    threads = threads < 1 ? 1 : (threads > MAX_THREADS ? MAX_THREADS : threads);
-    available = available < 1 ? 1 : (available > MAX_THREADS ? MAX_THREADS : available);
+    threads = thread_limit(threads);
+    available = thread_limit(available);
     const double *V = b[0].buf;
     const int64_t *F = b[1].buf, *weight = b[2].buf, *pairs = b[3].buf;
     int64_t n = b[0].len / 24, m = b[1].len / 24, p = b[3].len / 16;
