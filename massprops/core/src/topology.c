@@ -160,11 +160,6 @@ static inline void count_faces(EdgeWork *w, int join_shells)
     w->degenerate[0] = degenerate;
 }
 
-static void count_all(EdgeWork *w)
-{
-    count_faces(w, 0);
-}
-
 static void file_all(EdgeWork *w)
 {
     int64_t f, a, b, c;
@@ -182,7 +177,7 @@ static void count_part(void *arg, int64_t part)
     int64_t low = w->n * part / w->parts, high = w->n * (part + 1) / w->parts, f, a, b, c, collapsed = 0,
             degenerate = 0;
     if (w->parts == 1) {
-        count_all(w);
+        count_faces(w, 0);
         return;
     }
     for (f = 0; f < w->m; f++) {
@@ -471,11 +466,6 @@ static void join_faces(EdgeWork *w)
     }
 }
 
-static void join_and_count(EdgeWork *w)
-{
-    count_faces(w, 1);
-}
-
 static void shells_or_edges(void *arg, int64_t block)
 {
     if (block == 0)
@@ -565,7 +555,7 @@ static int edge_work(const void *faces, int faces32, int64_t m, int64_t n, int t
         if (threads > 1)
             parallel_blocks(threads, 2, shells_or_edges, &w);
         else
-            join_and_count(&w);
+            count_faces(&w, 1);         /* one thread: the joining and the counting in one pass */
         if ((w.outside[0] || w.outside[1]) && check_indices(faces, faces32, m, n, failure) != 0)
             goto done;
         w.checked = 0;
