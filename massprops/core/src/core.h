@@ -138,9 +138,9 @@ int read_exactly(int fd, char *buffer, size_t bytes, int64_t offset, Failure *fa
 void jacobi3(const double a[9], double moments[3], double vectors[9], double *bound);
 /* max over the vertices of |x - centre|^2, rounded as (dx*dx + dz*dz) + dy*dy (post.c). */
 double largest_squared_distance(const double *vertices, int64_t n, const double centre[3]);
+int all_finite(const double *values, int64_t count);   /* no NaN and no infinity among count doubles */
 /* frame.py's frame_of: the box, the exact reference, the scale and the scaled radius; 0, or 1 when the box spans
  * more than the largest double (nothing else set), 2 when the box's scaled volume is near 2**-900 (frame.py checks) */
-int all_finite(const double *values, int64_t count);   /* no NaN and no infinity among count doubles */
 int frame_choice(const double *vertices, int64_t n, double low[3], double high[3], double reference[3],
                  int *scale_exp, double *radius);
 

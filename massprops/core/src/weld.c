@@ -295,10 +295,10 @@ static void populate_part(const RangeWork *work, int block, size_t from, size_t 
 static void prefault(RangeWork *work)
 {
     size_t k;
+    double share = (double)work->bytes[2] / (double)work->bytes[1];    /* vertices' bytes per face byte */
     for (k = 0; k < work->bytes[0] && !__atomic_load_n(&work->welded, __ATOMIC_ACQUIRE); k += PREFAULT_CHUNK)
         populate_part(work, 0, k, k + PREFAULT_CHUNK);
     for (k = 0; k < work->bytes[1] && !__atomic_load_n(&work->welded, __ATOMIC_ACQUIRE); k += PREFAULT_CHUNK) {
-        double share = (double)work->bytes[2] / (double)work->bytes[1];
         populate_part(work, 1, k, k + PREFAULT_CHUNK);
         populate_part(work, 2, (size_t)(share * (double)k), (size_t)(share * (double)(k + PREFAULT_CHUNK)));
     }
